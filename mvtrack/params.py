@@ -1,0 +1,243 @@
+"""Thresholds: one frozen config dataclass per stage, loaded from TOML.
+
+Every tunable number of mvtrack lives here, with its unit in its name, its default, a one-line
+doc and its valid range. A stage receives only its own config (``params.background`` ...).
+
+    params = load_params(Path("mvtrack.toml"), overrides=["background.t_low=0.12"])
+    print(dump_params(params))          # the full effective TOML, a valid file to start from
+
+Bad values are :class:`ParamsError`s that name the key (``background.t_low``) and the file.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import tomllib
+import types
+import typing
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+__all__ = [
+    "BackgroundConfig",
+    "FeetConfig",
+    "Params",
+    "ParamsError",
+    "TrackerConfig",
+    "dump_params",
+    "load_params",
+    "params_from_dict",
+]
+
+
+class ParamsError(ValueError):
+    """A thresholds file or override is invalid; the message names the key and the source."""
+
+
+def param(default: Any, doc: str, lo: float | None = None, hi: float | None = None) -> Any:
+    """A config field with its documentation and inclusive valid range (numbers only)."""
+    return field(default=default, metadata={"doc": doc, "lo": lo, "hi": hi})
+
+
+class _Checked:
+    """Mixin: range-checks every field from its metadata, then calls ``_check`` for relations."""
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            lo, hi = f.metadata.get("lo"), f.metadata.get("hi")
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                continue
+            if math.isnan(value) or (lo is not None and value < lo) or (
+                hi is not None and value > hi
+            ):
+                raise ParamsError(f"{f.name} = {value} is out of range [{lo}, {hi}]")
+        self._check()
+
+    def _check(self) -> None:
+        """Relations between fields; override and raise ParamsError naming the keys."""
+
+
+@dataclass(frozen=True)
+class BackgroundConfig(_Checked):
+    """Sakbot background subtraction (SPEC §1, thesis §3.2.1)."""
+
+    train_frames: int = param(100, "frames whose per-pixel median is the initial background", 1)
+    fifo_n: int = param(8, "n: frames in the FIFO median (odd or even; median of n)", 1, 64)
+    fifo_spacing_frames: int = param(5, "m: spacing in frames between FIFO samples", 1, 1000)
+    t_low: float = param(0.10, "T_L: D_B above which a pixel is candidate foreground", 0.0, 1.0)
+    t_high: float = param(0.25, "T_H: some pixel of an MVO must have D_B above this", 0.0, 1.0)
+    min_area_px: int = param(60, "T_area: minimum blob area in pixels at the full frame size", 1)
+    min_mean_flow_px: float = param(
+        0.3, "T_AOF: minimum mean optical-flow magnitude (px/frame) inside an MVO", 0.0
+    )
+    open_kernel_px: int = param(3, "side of the square opening kernel (1 = no opening)", 1, 31)
+    # Shadow test (Cucchiara et al.). Literature ranges: alpha 0.3-0.5, beta 0.5-0.9,
+    # tau_S 0.1-0.9, tau_H 0-0.1. A cast shadow keeps the hue and saturation of the ground and
+    # darkens it; our cameras see daylight shadows at 40-80 % of the lit value, so alpha sits at
+    # the low end of its range (deep shadows) and beta at 0.9 (soft penumbra), while tau_S and
+    # tau_H stay tight so that dark clothing of the ground's colour is not called shadow.
+    shadow_alpha: float = param(0.35, "alpha: lowest I_V/B_V ratio of a shadow pixel", 0.0, 1.0)
+    shadow_beta: float = param(0.92, "beta: highest I_V/B_V ratio of a shadow pixel", 0.0, 1.0)
+    shadow_sat_tol: float = param(0.15, "tau_S: largest |I_S - B_S| of a shadow pixel", 0.0, 1.0)
+    shadow_hue_tol_rad: float = param(
+        0.5, "tau_H: largest circular hue difference of a shadow pixel (radians)", 0.0, math.pi
+    )
+    shadow_min_value: float = param(
+        0.08, "pixels with B_V below this have no meaningful hue: shadow test uses V only", 0.0, 1.0
+    )
+    gray_shadows: bool = param(True, "gray cameras: apply the V-ratio shadow test (else none)")
+
+    def _check(self) -> None:
+        if self.t_high <= self.t_low:
+            raise ParamsError(f"t_high = {self.t_high} must be greater than t_low = {self.t_low}")
+        if self.shadow_beta <= self.shadow_alpha:
+            raise ParamsError(
+                f"shadow_beta = {self.shadow_beta} must be greater than "
+                f"shadow_alpha = {self.shadow_alpha}"
+            )
+
+
+@dataclass(frozen=True)
+class TrackerConfig(_Checked):
+    """Single-camera blob tracker (SPEC §2, thesis §3.2.2)."""
+
+    min_overlap_px: int = param(1, "pixels two masks must share to overlap", 1)
+    min_box_iou: float = param(0.05, "detections: IoU above which two boxes overlap", 0.0, 1.0)
+    merge_motion_frames: int = param(
+        3, "frames of history used to predict each merged target's motion", 1, 50
+    )
+
+
+@dataclass(frozen=True)
+class FeetConfig(_Checked):
+    """Feet and height per target (SPEC §3, thesis §3.2.4)."""
+
+    method: str = param("pca", "feet method: 'pca' (thesis) or 'bbox' (bottom centre of box)")
+    edge_margin_px: int = param(2, "a mask within this many px of a border touches it", 0, 50)
+
+    def _check(self) -> None:
+        if self.method not in ("pca", "bbox"):
+            raise ParamsError(f"method = {self.method!r} must be 'pca' or 'bbox'")
+
+
+@dataclass(frozen=True)
+class Params:
+    """All thresholds, one config per stage; TOML tables are named after these fields."""
+
+    background: BackgroundConfig = field(default_factory=BackgroundConfig)
+    tracker: TrackerConfig = field(default_factory=TrackerConfig)
+    feet: FeetConfig = field(default_factory=FeetConfig)
+
+
+def _stage_types() -> dict[str, type]:
+    hints = typing.get_type_hints(Params)
+    return {f.name: hints[f.name] for f in dataclasses.fields(Params)}
+
+
+def _coerce(value: Any, typ: Any, key: str) -> Any:
+    """Check a TOML value against a field's type; ints are accepted for floats."""
+    if typing.get_origin(typ) in (typing.Union, types.UnionType):
+        args = typing.get_args(typ)
+        if value is None and type(None) in args:
+            return None
+        typ = next(a for a in args if a is not type(None))
+    ok = {
+        bool: isinstance(value, bool),
+        int: isinstance(value, int) and not isinstance(value, bool),
+        float: isinstance(value, int | float) and not isinstance(value, bool),
+        str: isinstance(value, str),
+    }.get(typ)
+    if ok is None:
+        raise TypeError(f"unsupported config type {typ} for {key}")
+    if not ok:
+        raise ParamsError(f"{key} = {value!r}: expected {typ.__name__}")
+    return float(value) if typ is float else value
+
+
+def params_from_dict(data: dict[str, Any], source: str = "<dict>") -> Params:
+    """Build Params from a TOML-shaped dict; missing keys keep their defaults."""
+    stages = _stage_types()
+    built: dict[str, Any] = {}
+    for stage, table in data.items():
+        if stage not in stages:
+            raise ParamsError(f"{source}: unknown stage [{stage}] (known: {', '.join(stages)})")
+        if not isinstance(table, dict):
+            raise ParamsError(f"{source}: [{stage}] must be a table")
+        cls = stages[stage]
+        hints = typing.get_type_hints(cls)
+        names = {f.name for f in dataclasses.fields(cls)}
+        kwargs = {}
+        for key, value in table.items():
+            if key not in names:
+                raise ParamsError(f"{source}: unknown key {stage}.{key}")
+            try:
+                kwargs[key] = _coerce(value, hints[key], f"{stage}.{key}")
+            except ParamsError as exc:
+                raise ParamsError(f"{source}: {exc}") from None
+        try:
+            built[stage] = cls(**kwargs)
+        except ParamsError as exc:
+            raise ParamsError(f"{source}: {stage}.{exc}") from None
+    return Params(**built)
+
+
+def _parse_override(text: str) -> tuple[str, str, Any]:
+    if "=" not in text or "." not in text.split("=", 1)[0]:
+        raise ParamsError(f"--set {text!r}: expected stage.key=value")
+    path, raw = text.split("=", 1)
+    stage, key = path.strip().split(".", 1)
+    try:
+        value = tomllib.loads(f"v = {raw.strip()}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw.strip()  # a bare word is a string: --set feet.method=bbox
+    return stage, key, value
+
+
+def load_params(path: Path | None = None, overrides: typing.Sequence[str] = ()) -> Params:
+    """Load thresholds from a TOML file (or defaults), then apply ``stage.key=value`` overrides."""
+    data: dict[str, Any] = {}
+    source = "defaults"
+    if path is not None:
+        source = str(path)
+        try:
+            data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
+        except FileNotFoundError:
+            raise ParamsError(f"{path}: no such thresholds file") from None
+        except tomllib.TOMLDecodeError as exc:
+            raise ParamsError(f"{path}: not valid TOML: {exc}") from None
+    for text in overrides:
+        stage, key, value = _parse_override(text)
+        data.setdefault(stage, {})
+        if not isinstance(data[stage], dict):
+            raise ParamsError(f"{source}: [{stage}] must be a table")
+        data[stage][key] = value
+    label = source if not overrides else f"{source} + --set"
+    return params_from_dict(data, label)
+
+
+def _toml_value(value: Any) -> str:
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, float):
+        return repr(value)
+    return str(value)
+
+
+def dump_params(params: Params) -> str:
+    """The full effective thresholds as commented TOML that :func:`load_params` reads back."""
+    lines = ["# mvtrack thresholds (mvtrack params show). Units are in the key names."]
+    for stage in dataclasses.fields(params):
+        config = getattr(params, stage.name)
+        lines += ["", f"# {type(config).__doc__.strip().splitlines()[0]}", f"[{stage.name}]"]
+        for f in dataclasses.fields(config):
+            lo, hi = f.metadata.get("lo"), f.metadata.get("hi")
+            rng = "" if lo is None and hi is None else f"  [{lo if lo is not None else ''}, "
+            rng += "" if not rng else f"{hi if hi is not None else ''}]"
+            lines.append(f"# {f.metadata.get('doc', '')}{rng}")
+            lines.append(f"{f.name} = {_toml_value(getattr(config, f.name))}")
+    return "\n".join(lines) + "\n"
