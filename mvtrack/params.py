@@ -116,7 +116,6 @@ class FeetConfig(_Checked):
     """Feet and height per target (SPEC §3, thesis §3.2.4)."""
 
     method: str = param("pca", "feet method: 'pca' (thesis) or 'bbox' (bottom centre of box)")
-    edge_margin_px: int = param(2, "a mask within this many px of a border touches it", 0, 50)
 
     def _check(self) -> None:
         if self.method not in ("pca", "bbox"):
@@ -228,6 +227,14 @@ def _toml_value(value: Any) -> str:
     return str(value)
 
 
+def _range_text(lo: float | None, hi: float | None) -> str:
+    if lo is not None and hi is not None:
+        return f" (range {lo} to {hi})"
+    if lo is not None:
+        return f" (at least {lo})"
+    return "" if hi is None else f" (at most {hi})"
+
+
 def dump_params(params: Params) -> str:
     """The full effective thresholds as commented TOML that :func:`load_params` reads back."""
     lines = ["# mvtrack thresholds (mvtrack params show). Units are in the key names."]
@@ -236,8 +243,6 @@ def dump_params(params: Params) -> str:
         lines += ["", f"# {type(config).__doc__.strip().splitlines()[0]}", f"[{stage.name}]"]
         for f in dataclasses.fields(config):
             lo, hi = f.metadata.get("lo"), f.metadata.get("hi")
-            rng = "" if lo is None and hi is None else f"  [{lo if lo is not None else ''}, "
-            rng += "" if not rng else f"{hi if hi is not None else ''}]"
-            lines.append(f"# {f.metadata.get('doc', '')}{rng}")
+            lines.append(f"# {f.metadata.get('doc', '')}{_range_text(lo, hi)}")
             lines.append(f"{f.name} = {_toml_value(getattr(config, f.name))}")
     return "\n".join(lines) + "\n"
