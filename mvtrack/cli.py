@@ -1,0 +1,181 @@
+"""The `mvtrack` command line. Only this module (and the viewer's) imports typer.
+
+Each command is thin: parse options, call the library, print. Errors that are the user's
+(bad clip, bad thresholds) print one clear line and exit with status 2; bugs keep their traceback.
+"""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
+from rich.table import Table
+
+from mvtrack.params import ParamsError, dump_params, load_params
+
+app = typer.Typer(
+    name="mvtrack",
+    help="Homography-based multi-camera person tracking (Turk 2008) and its visual debugger.",
+    no_args_is_help=True,
+    add_completion=False,
+    pretty_exceptions_enable=False,
+)
+params_app = typer.Typer(help="Show and check thresholds files.", no_args_is_help=True)
+app.add_typer(params_app, name="params")
+
+out = Console()
+err = Console(stderr=True)
+
+ParamsOpt = Annotated[
+    Path | None,
+    typer.Option("--params", help="Thresholds TOML file (default: the clip's mvtrack.toml)."),
+]
+SetOpt = Annotated[
+    list[str] | None,
+    typer.Option("--set", help="Override one threshold, e.g. --set background.t_low=0.12."),
+]
+
+
+def fail(message: str) -> typer.Exit:
+    """Print a user error and return the exit to raise."""
+    err.print(f"[bold red]error:[/] {message}", highlight=False)
+    return typer.Exit(code=2)
+
+
+@contextmanager
+def user_errors() -> Iterator[None]:
+    """Turn the library's bad-input errors into one clear line and exit status 2."""
+    from mvtrack.io import ClipError
+
+    try:
+        yield
+    except (ClipError, ParamsError) as exc:
+        raise fail(str(exc)) from None
+
+
+@contextmanager
+def progress_bar(description: str) -> Iterator[Callable[[int, int], None]]:
+    """A rich progress bar; yields ``update(done, total)``."""
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeRemainingColumn(),
+        console=err,
+        transient=False,
+        disable=not err.is_terminal,
+    ) as bar:
+        task = bar.add_task(description, total=None)
+
+        def update(done: int, total: int) -> None:
+            bar.update(task, completed=done, total=total)
+
+        yield update
+
+
+def parse_size(text: str) -> tuple[int, int]:
+    """'640x480' -> (640, 480)."""
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise fail(f"--size {text!r}: expected WIDTHxHEIGHT, e.g. 640x480") from None
+    if w < 64 or h < 48:
+        raise fail(f"--size {text!r}: at least 64x48")
+    return w, h
+
+
+@app.command()
+def generate(
+    out_dir: Annotated[Path, typer.Argument(help="New clip directory to write.")],
+    scenario: Annotated[str, typer.Option(help="Scenario name (see --list).")] = "pair",
+    seed: Annotated[int, typer.Option(help="Random seed: same seed, same clip.")] = 0,
+    frames: Annotated[int, typer.Option(help="Number of frames.")] = 600,
+    size: Annotated[str, typer.Option(help="Frame size WIDTHxHEIGHT of the main camera.")] = (
+        "640x480"
+    ),
+    image_format: Annotated[
+        str, typer.Option("--format", help="Camera files: mp4 (video), png or jpg (frame folders).")
+    ] = "mp4",
+    list_scenarios: Annotated[
+        bool, typer.Option("--list", help="List the scenarios and exit.")
+    ] = False,
+) -> None:
+    """Write a synthetic multi-camera clip with ground truth (thesis §4.1)."""
+    from mvtrack.generate import SCENARIOS, generate_clip
+
+    if list_scenarios:
+        for name, sc in SCENARIOS.items():
+            out.print(f"[bold]{name:10}[/] {sc.summary}", highlight=False)
+        return
+    if scenario not in SCENARIOS:
+        raise fail(f"--scenario {scenario!r}: expected one of {', '.join(SCENARIOS)}")
+    if frames < 1:
+        raise fail(f"--frames {frames}: expected at least 1")
+    wh = parse_size(size)
+    with progress_bar(f"generating {scenario}") as update:
+        try:
+            path = generate_clip(
+                out_dir, scenario, seed=seed, frames=frames, size=wh, progress=update,
+                image_format=image_format,
+            )
+        except ValueError as exc:
+            raise fail(str(exc)) from None
+    out.print(f"wrote {path}")
+
+
+@params_app.command("show")
+def params_show(
+    clip: Annotated[
+        Path | None, typer.Argument(help="Clip whose mvtrack.toml to start from (optional).")
+    ] = None,
+    params: ParamsOpt = None,
+    set_: SetOpt = None,
+) -> None:
+    """Print the full effective thresholds as TOML (a valid file to start from)."""
+    with user_errors():
+        path = params
+        if path is None and clip is not None and (clip / "mvtrack.toml").is_file():
+            path = clip / "mvtrack.toml"
+        sys.stdout.write(dump_params(load_params(path, set_ or [])))
+
+
+@params_app.command("check")
+def params_check(file: Annotated[Path, typer.Argument(help="Thresholds TOML file.")]) -> None:
+    """Validate a thresholds file: unknown keys and out-of-range values are errors."""
+    with user_errors():
+        load_params(file)
+    out.print(f"{file}: ok")
+
+
+@app.command()
+def info(clip: Annotated[Path, typer.Argument(help="Clip directory.")]) -> None:
+    """Describe a clip: cameras, sizes, modality, frame counts, fps, overlaps, truth."""
+    from mvtrack.io import open_clip
+
+    with user_errors(), open_clip(clip) as opened:
+        spec = opened.spec
+    table = Table(title=f"{spec.root}  ({spec.fps:g} fps)")
+    for col in ("camera", "kind", "source", "size", "modality", "frames", "offset"):
+        table.add_column(col)
+    for cam in spec.cameras:
+        table.add_row(
+            cam.name, cam.kind, str(cam.source.relative_to(spec.root)),
+            f"{cam.size[0]}x{cam.size[1]}", cam.modality, str(cam.length), str(cam.offset),
+        )
+    out.print(table)
+    out.print(f"common range: frames 0..{spec.frame_count - 1} ({spec.frame_count} frames)")
+    out.print("overlaps: " + (", ".join(f"{a}–{b}" for a, b in spec.overlaps) or "none"))
+    out.print(f"truth: {'yes (' + str(spec.truth_dir) + ')' if spec.truth_dir else 'no'}")
+    out.print(f"thresholds: {spec.params_file or 'defaults'}")
+    for warning in spec.warnings:
+        err.print(f"[yellow]warning:[/] {warning}", highlight=False)
+
+
+def main() -> None:
+    app()
