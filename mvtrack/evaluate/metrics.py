@@ -1,0 +1,212 @@
+"""Accuracy figures against ground truth: detection, feet, identity (IDF1), masks.
+
+Pure numpy/scipy on arrays, so every figure can be unit-tested on hand-made rows. Matching is by
+feet distance gated by the person's height (a gate in body heights works at every depth):
+a prediction matches a truth row when ``|foot_pred - foot_true| < gate_heights * height_true``.
+
+Truth rows of people less than ``min_visible`` visible are "don't care": a prediction matched to
+one is neither a hit nor a false alarm, and missing one is not a miss.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import linear_sum_assignment
+
+__all__ = [
+    "FrameRows",
+    "MaskScores",
+    "detection_scores",
+    "frame_matches",
+    "idf1",
+    "mask_scores",
+]
+
+_BIG = 1e9
+
+
+@dataclass(frozen=True)
+class FrameRows:
+    """Rows of one camera (or one kind of thing) over many frames, as parallel arrays.
+
+    frames: (N,) int64; ids: (N,) int64; feet: (N, 2) float64; heights: (N,) float64 (truth: the
+    person's box height in px; predictions: unused, may be zeros); visible: (N,) float64 (1.0 for
+    predictions).
+    """
+
+    frames: np.ndarray
+    ids: np.ndarray
+    feet: np.ndarray
+    heights: np.ndarray
+    visible: np.ndarray
+
+    @classmethod
+    def of(cls, frames: object, ids: object, feet: object, heights: object = None,
+           visible: object = None) -> FrameRows:
+        f = np.asarray(frames, np.int64).reshape(-1)
+        n = len(f)
+        return cls(
+            frames=f,
+            ids=np.asarray(ids, np.int64).reshape(n),
+            feet=np.asarray(feet, np.float64).reshape(n, 2),
+            heights=np.zeros(n) if heights is None else np.asarray(heights, np.float64).reshape(n),
+            visible=np.ones(n) if visible is None else np.asarray(visible, np.float64).reshape(n),
+        )
+
+    def by_frame(self) -> dict[int, np.ndarray]:
+        """Frame index -> row indices."""
+        order = np.argsort(self.frames, kind="stable")
+        cuts = np.flatnonzero(np.diff(self.frames[order])) + 1
+        return {int(self.frames[g[0]]): g for g in np.split(order, cuts) if len(g)}
+
+
+def frame_matches(
+    pred_feet: np.ndarray, true_feet: np.ndarray, true_heights: np.ndarray, gate_heights: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Minimum-distance one-to-one matching within the gate. Returns (pred_idx, true_idx)."""
+    if len(pred_feet) == 0 or len(true_feet) == 0:
+        empty = np.zeros(0, np.int64)
+        return empty, empty
+    dist = np.linalg.norm(pred_feet[:, None, :] - true_feet[None, :, :], axis=2)
+    gate = gate_heights * np.maximum(true_heights, 1.0)[None, :]
+    cost = np.where(dist < gate, dist, _BIG)
+    rows, cols = linear_sum_assignment(cost)
+    keep = cost[rows, cols] < _BIG
+    return rows[keep].astype(np.int64), cols[keep].astype(np.int64)
+
+
+@dataclass(frozen=True)
+class _Matched:
+    pred_rows: np.ndarray  # global row indices into pred, matched to counted truth
+    true_rows: np.ndarray  # global row indices into truth
+    pred_counted: int  # predictions not matched to a don't-care truth row
+    true_counted: int  # truth rows at least min_visible visible
+
+
+def _match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
+               min_visible: float) -> _Matched:
+    pred_by, true_by = pred.by_frame(), truth.by_frame()
+    pr, tr = [], []
+    pred_ignored = 0
+    for frame, p_idx in pred_by.items():
+        t_idx = true_by.get(frame, np.zeros(0, np.int64))
+        i, j = frame_matches(pred.feet[p_idx], truth.feet[t_idx], truth.heights[t_idx],
+                             gate_heights)
+        counted = truth.visible[t_idx[j]] >= min_visible
+        pred_ignored += int((~counted).sum())
+        pr.append(p_idx[i[counted]])
+        tr.append(t_idx[j[counted]])
+    cat = (lambda parts: np.concatenate(parts) if parts else np.zeros(0, np.int64))
+    return _Matched(
+        pred_rows=cat(pr),
+        true_rows=cat(tr),
+        pred_counted=len(pred.frames) - pred_ignored,
+        true_counted=int((truth.visible >= min_visible).sum()),
+    )
+
+
+def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
+                     min_visible: float = 0.5) -> dict[str, float]:
+    """Recall, precision and feet error of per-frame predictions against truth (one camera).
+
+    Feet error is over matched pairs: median and 90th percentile in px and as a fraction of
+    the truth height.
+    """
+    m = _match_all(pred, truth, gate_heights, min_visible)
+    hits = len(m.true_rows)
+    err = np.linalg.norm(pred.feet[m.pred_rows] - truth.feet[m.true_rows], axis=1)
+    rel = err / np.maximum(truth.heights[m.true_rows], 1.0)
+    nan = float("nan")
+    return {
+        "recall": hits / m.true_counted if m.true_counted else nan,
+        "precision": hits / m.pred_counted if m.pred_counted else nan,
+        "matches": hits,
+        "truth_rows": m.true_counted,
+        "predicted_rows": m.pred_counted,
+        "foot_error_px_median": float(np.median(err)) if hits else nan,
+        "foot_error_px_p90": float(np.percentile(err, 90)) if hits else nan,
+        "foot_error_height_median": float(np.median(rel)) if hits else nan,
+        "foot_error_height_p90": float(np.percentile(rel, 90)) if hits else nan,
+    }
+
+
+def idf1(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
+         min_visible: float = 0.5) -> dict[str, float]:
+    """Identity F1 (Ristani et al. 2016) of predicted ids against truth ids.
+
+    Rows may come from several cameras at once (pass frames made unique per camera, e.g.
+    ``frame * n_cameras + camera_index``) for a global IDF1 of cross-camera labels.
+    The per-frame matches decide which (pred id, truth id) pairs co-occur; the id-to-id
+    assignment that maximizes co-occurrences gives IDTP.
+    """
+    m = _match_all(pred, truth, gate_heights, min_visible)
+    nan = float("nan")
+    if m.true_counted + m.pred_counted == 0:
+        return {"idf1": nan, "idp": nan, "idr": nan, "idtp": 0}
+    p_ids, p_inv = np.unique(pred.ids[m.pred_rows], return_inverse=True)
+    t_ids, t_inv = np.unique(truth.ids[m.true_rows], return_inverse=True)
+    co = np.zeros((len(p_ids), len(t_ids)))
+    np.add.at(co, (p_inv, t_inv), 1.0)
+    rows, cols = linear_sum_assignment(-co) if co.size else (np.zeros(0, int), np.zeros(0, int))
+    idtp = float(co[rows, cols].sum())
+    return {
+        "idf1": 2 * idtp / (m.true_counted + m.pred_counted),
+        "idp": idtp / m.pred_counted if m.pred_counted else nan,
+        "idr": idtp / m.true_counted if m.true_counted else nan,
+        "idtp": idtp,
+    }
+
+
+@dataclass(frozen=True)
+class MaskScores:
+    """Pixel counts behind the mask figures, summed over frames (so they add up correctly)."""
+
+    fg_true_pos: int = 0  # truth person, predicted foreground
+    fg_false_pos: int = 0  # truth background or shadow, predicted foreground
+    fg_false_neg: int = 0  # truth person, not predicted foreground
+    shadow_pixels: int = 0  # truth cast-shadow pixels
+    shadow_detected: int = 0  # truth shadow predicted shadow and not foreground
+    person_not_shadow: int = 0  # truth person pixels not called shadow
+
+    def __add__(self, other: MaskScores) -> MaskScores:
+        return MaskScores(*(a + b for a, b in zip(self.counts(), other.counts(), strict=True)))
+
+    def counts(self) -> tuple[int, ...]:
+        return (self.fg_true_pos, self.fg_false_pos, self.fg_false_neg, self.shadow_pixels,
+                self.shadow_detected, self.person_not_shadow)
+
+    def summary(self) -> Mapping[str, float]:
+        nan = float("nan")
+        person = self.fg_true_pos + self.fg_false_neg
+        pred = self.fg_true_pos + self.fg_false_pos
+        return {
+            "fg_precision": self.fg_true_pos / pred if pred else nan,
+            "fg_recall": self.fg_true_pos / person if person else nan,
+            "shadow_detection": self.shadow_detected / self.shadow_pixels
+            if self.shadow_pixels else nan,
+            "shadow_discrimination": self.person_not_shadow / person if person else nan,
+        }
+
+
+def mask_scores(pred_label: np.ndarray, truth_label: np.ndarray) -> MaskScores:
+    """Compare one predicted mask image with one truth mask image.
+
+    Both are (H, W) uint8 with 0 background, 1 person/foreground, 2 shadow (FORMATS.md).
+    Shadow detection (Prati et al.) is the share of truth shadow pixels called shadow and not
+    foreground; shadow discrimination the share of truth person pixels not called shadow.
+    """
+    if pred_label.shape != truth_label.shape:
+        raise ValueError(f"mask shapes differ: {pred_label.shape} vs {truth_label.shape}")
+    pf, tf = pred_label == 1, truth_label == 1
+    ts = truth_label == 2
+    return MaskScores(
+        fg_true_pos=int((pf & tf).sum()),
+        fg_false_pos=int((pf & ~tf).sum()),
+        fg_false_neg=int((~pf & tf).sum()),
+        shadow_pixels=int(ts.sum()),
+        shadow_detected=int((ts & (pred_label == 2)).sum()),
+        person_not_shadow=int((tf & (pred_label != 2)).sum()),
+    )

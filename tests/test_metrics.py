@@ -1,0 +1,107 @@
+"""Evaluation figures on hand-made rows where the right answer is known."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mvtrack.evaluate.metrics import (
+    FrameRows,
+    MaskScores,
+    detection_scores,
+    frame_matches,
+    idf1,
+    mask_scores,
+)
+
+
+def truth_two_people(frames: int = 10) -> FrameRows:
+    f = np.repeat(np.arange(frames), 2)
+    ids = np.tile([1, 2], frames)
+    feet = np.stack([np.where(ids == 1, 50.0, 150.0), np.full(len(f), 100.0)], axis=1)
+    return FrameRows.of(f, ids, feet, heights=np.full(len(f), 40.0))
+
+
+def test_perfect_predictions_score_one() -> None:
+    truth = truth_two_people()
+    pred = FrameRows.of(truth.frames, truth.ids + 10, truth.feet + [1.0, 0.0])
+    det = detection_scores(pred, truth)
+    assert det["recall"] == det["precision"] == 1.0
+    assert det["foot_error_px_median"] == pytest.approx(1.0)
+    assert det["foot_error_height_median"] == pytest.approx(1 / 40)
+    assert idf1(pred, truth)["idf1"] == 1.0
+
+
+def test_gate_is_in_heights() -> None:
+    truth = truth_two_people(1)
+    far = FrameRows.of([0], [7], [[50.0, 121.0]])  # 21 px away, gate 0.5 * 40 = 20 px
+    near = FrameRows.of([0], [7], [[50.0, 119.0]])
+    assert detection_scores(far, truth)["recall"] == 0.0
+    assert detection_scores(near, truth)["recall"] == 0.5
+    assert detection_scores(near, truth)["precision"] == 1.0
+
+
+def test_id_swap_halfway_halves_idf1() -> None:
+    truth = truth_two_people(10)
+    ids = truth.ids.copy()
+    ids[truth.frames >= 5] = 3 - ids[truth.frames >= 5]  # labels swap at frame 5
+    pred = FrameRows.of(truth.frames, ids, truth.feet)
+    assert detection_scores(pred, truth)["recall"] == 1.0
+    assert idf1(pred, truth)["idf1"] == pytest.approx(0.5)
+
+
+def test_fragmented_track_counts_only_longest_piece() -> None:
+    truth = truth_two_people(10)
+    ids = truth.ids.copy()
+    ids[(truth.ids == 1) & (truth.frames >= 8)] = 99  # person 1 relabelled for 2 of 10 frames
+    assert idf1(FrameRows.of(truth.frames, ids, truth.feet), truth)["idf1"] == pytest.approx(0.9)
+
+
+def test_hardly_visible_truth_is_dont_care() -> None:
+    truth = truth_two_people(4)
+    vis = np.where(truth.ids == 2, 0.2, 1.0)
+    truth = FrameRows.of(truth.frames, truth.ids, truth.feet, truth.heights, vis)
+    only_one = truth.ids == 1
+    pred_one = FrameRows.of(truth.frames[only_one], truth.ids[only_one], truth.feet[only_one])
+    pred_all = FrameRows.of(truth.frames, truth.ids, truth.feet)
+    for pred in (pred_one, pred_all):
+        det = detection_scores(pred, truth)
+        assert (det["recall"], det["precision"]) == (1.0, 1.0)
+
+
+def test_false_alarms_lower_precision() -> None:
+    truth = truth_two_people(4)
+    extra = FrameRows.of(
+        np.concatenate([truth.frames, [0, 1]]),
+        np.concatenate([truth.ids, [5, 5]]),
+        np.concatenate([truth.feet, [[300.0, 10.0], [300.0, 10.0]]]),
+    )
+    assert detection_scores(extra, truth)["precision"] == pytest.approx(8 / 10)
+
+
+@pytest.mark.parametrize("n_pred,n_true", [(0, 0), (0, 3), (3, 0)])
+def test_frame_matches_empty(n_pred: int, n_true: int) -> None:
+    i, j = frame_matches(np.zeros((n_pred, 2)), np.zeros((n_true, 2)), np.ones(n_true), 0.5)
+    assert len(i) == len(j) == 0
+
+
+def test_empty_rows_give_nan_not_errors() -> None:
+    empty = FrameRows.of([], [], np.zeros((0, 2)))
+    assert np.isnan(detection_scores(empty, empty)["recall"])
+    assert np.isnan(idf1(empty, empty)["idf1"])
+
+
+def test_mask_scores() -> None:
+    truth = np.zeros((4, 6), np.uint8)
+    truth[0:2, 0:2] = 1  # 4 person pixels
+    truth[2:4, 0:3] = 2  # 6 shadow pixels
+    pred = np.zeros_like(truth)
+    pred[0:2, 0:1] = 1  # 2 of 4 person pixels found
+    pred[0, 1] = 2  # one person pixel wrongly called shadow
+    pred[2, 0:3] = 2  # 3 of 6 shadow pixels detected
+    pred[3, 0] = 1  # a shadow pixel in the foreground
+    s = (mask_scores(pred, truth) + MaskScores()).summary()
+    assert s["fg_recall"] == pytest.approx(2 / 4)
+    assert s["fg_precision"] == pytest.approx(2 / 3)
+    assert s["shadow_detection"] == pytest.approx(3 / 6)
+    assert s["shadow_discrimination"] == pytest.approx(3 / 4)
