@@ -99,10 +99,9 @@ def _match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
         pred_ignored += int((~counted).sum())
         pr.append(p_idx[i[counted]])
         tr.append(t_idx[j[counted]])
-    cat = (lambda parts: np.concatenate(parts) if parts else np.zeros(0, np.int64))
     return _Matched(
-        pred_rows=cat(pr),
-        true_rows=cat(tr),
+        pred_rows=np.concatenate(pr) if pr else np.zeros(0, np.int64),
+        true_rows=np.concatenate(tr) if tr else np.zeros(0, np.int64),
         pred_counted=len(pred.frames) - pred_ignored,
         true_counted=int((truth.visible >= min_visible).sum()),
     )
