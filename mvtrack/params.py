@@ -23,6 +23,9 @@ from typing import Any
 __all__ = [
     "BackgroundConfig",
     "FeetConfig",
+    "FovConfig",
+    "HomographyConfig",
+    "MarkerConfig",
     "Params",
     "ParamsError",
     "TrackerConfig",
@@ -109,6 +112,22 @@ class TrackerConfig(_Checked):
     merge_motion_frames: int = param(
         3, "frames of history used to predict each merged target's motion", 1, 50
     )
+    # Merge division: each merged target's last unmerged mask, moved by its recent velocity,
+    # claims the blob pixels only it covers; contested and uncovered pixels go by colour.
+    merge_slack_px: float = param(
+        2.0,
+        "uncovered pixels of a merged blob: targets whose predicted mask is within this many "
+        "px of the nearest one compete on colour",
+        0.0,
+        100.0,
+    )
+    colour_bins: int = param(8, "appearance histogram bins per colour channel", 2, 32)
+    colour_rate: float = param(
+        0.2, "weight of the newest unmerged frame in a target's appearance histogram", 0.0, 1.0
+    )
+    colour_floor: float = param(
+        1e-3, "smallest colour probability, so one unseen colour cannot veto a target", 1e-9, 1.0
+    )
 
 
 @dataclass(frozen=True)
@@ -116,10 +135,106 @@ class FeetConfig(_Checked):
     """Feet and height per target (SPEC §3, thesis §3.2.4)."""
 
     method: str = param("pca", "feet method: 'pca' (thesis) or 'bbox' (bottom centre of box)")
+    min_elongation: float = param(
+        1.2,
+        "pca: sqrt of the PCA eigenvalue ratio below which a mask is too round to give a height "
+        "axis (image up is used instead)",
+        1.0,
+        10.0,
+    )
 
     def _check(self) -> None:
         if self.method not in ("pca", "bbox"):
             raise ParamsError(f"method = {self.method!r} must be 'pca' or 'bbox'")
+
+
+@dataclass(frozen=True)
+class FovConfig(_Checked):
+    """Field-of-view events, lines and associations (SPEC §4, thesis §3.2.3)."""
+
+    edge_margin_px: float = param(
+        2.0, "a target touches a side when its mask/box is within this many px of it", 0.0, 100.0
+    )
+    min_fov_events: int = param(4, "events on a side before its FOV line is estimated", 2, 1000)
+    max_fov_events: int = param(
+        200, "events kept per (camera, side) point set (oldest dropped)", 2, 100000
+    )
+    hough_theta_bins: int = param(180, "Hough angle bins over [0, pi)", 8, 3600)
+    hough_rho_step_px: float = param(2.0, "Hough distance bin size in pixels", 0.1, 100.0)
+    hough_margin_frac: float = param(
+        0.25, "Hough distance range: half the image diagonal times (1 + this)", 0.0, 10.0
+    )
+    hough_smooth_bins: float = param(
+        1.0, "Gaussian smoothing of the accumulator (bins; 0 = none)", 0.0, 10.0
+    )
+    hough_peak_radius_bins: int = param(
+        4, "peaks are maxima over a (2r+1)-bin square neighbourhood", 1, 100
+    )
+    hough_num_peaks: int = param(5, "peaks reported per accumulator", 1, 100)
+    hough_inlier_px: float = param(
+        6.0, "points this close to the peak line refine it by total least squares", 0.1, 1000.0
+    )
+    fov_match_heights: float = param(
+        0.35,
+        "association: largest |line . feet| divided by the target's height (body heights)",
+        0.0,
+        100.0,
+    )
+
+
+@dataclass(frozen=True)
+class MarkerConfig(_Checked):
+    """Marker dropping: corresponding feet points of linked targets (SPEC §5, thesis §3.2.5)."""
+
+    marker_every_frames: int = param(5, "try to drop markers every this many frames", 1, 10000)
+    inside_margin_px: float = param(
+        2.0, "test (a): a target is fully inside when its box is this far from every side",
+        0.0, 100.0,
+    )
+    height_tolerance: float = param(
+        0.15, "test (b): largest |height - median| as a fraction of the median", 0.0, 10.0
+    )
+    height_window_frames: int = param(
+        10, "test (b): frames of height history whose median is compared", 1, 10000
+    )
+    marker_min_move_px: float = param(
+        8.0, "test (c): one of the feet must move this far from the link's last marker",
+        0.0, 10000.0,
+    )
+    grid_cols: int = param(16, "marker store: grid columns over the first camera's frame", 1, 1000)
+    grid_rows: int = param(
+        12, "marker store: grid rows (one marker per cell, newest wins)", 1, 1000
+    )
+
+
+@dataclass(frozen=True)
+class HomographyConfig(_Checked):
+    """Homography from markers: normalized DLT, degeneracy rule, robust fit (SPEC §6)."""
+
+    method: str = param("robust", "'robust' (RANSAC, then DLT on inliers) or 'dlt' (plain)")
+    min_markers: int = param(10, "degeneracy: fewest markers for a homography", 4, 100000)
+    min_spread_ratio: float = param(
+        0.15, "degeneracy: smaller/larger singular value of centred markers, each camera",
+        0.0, 1.0,
+    )
+    min_area_px2: float = param(
+        400.0, "degeneracy: 4*sigma1*sigma2 of the markers in each camera (px^2)", 0.0
+    )
+    ransac_iterations: int = param(300, "RANSAC samples of 4 markers", 1, 100000)
+    ransac_threshold_px: float = param(
+        4.0, "RANSAC inlier: symmetric transfer error below this (px)", 0.01, 1000.0
+    )
+    ransac_seed: int = param(0, "seed of the RANSAC generator (fits are reproducible)", 0)
+    refit_growth_frac: float = param(
+        0.2, "re-fit when the marker count grew by this fraction since the last fit", 0.0, 100.0
+    )
+    refit_every_frames: int = param(
+        50, "re-fit at least this often while new markers arrive", 1, 1000000
+    )
+
+    def _check(self) -> None:
+        if self.method not in ("robust", "dlt"):
+            raise ParamsError(f"method = {self.method!r} must be 'robust' or 'dlt'")
 
 
 @dataclass(frozen=True)
@@ -129,6 +244,9 @@ class Params:
     background: BackgroundConfig = field(default_factory=BackgroundConfig)
     tracker: TrackerConfig = field(default_factory=TrackerConfig)
     feet: FeetConfig = field(default_factory=FeetConfig)
+    fov: FovConfig = field(default_factory=FovConfig)
+    markers: MarkerConfig = field(default_factory=MarkerConfig)
+    homography: HomographyConfig = field(default_factory=HomographyConfig)
 
 
 def _stage_types() -> dict[str, type]:
