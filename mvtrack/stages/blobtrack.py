@@ -1,0 +1,749 @@
+"""Single-camera tracker (SPEC §2, thesis §3.2.2): labels MVO blobs (or boxes) frame to frame.
+
+    state = tracker_init()
+    for mvo_labels, frame in frames:
+        state, result = track_masks(state, mvo_labels, frame, params.tracker)
+
+Labels are integers >= 1, never reused within a camera (the counter lives in the state).
+
+Rules, applied to the overlap matrix of previous targets (rows) x current blobs (columns); a pair
+overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``min_box_iou``).
+
+1. Every previous target picks one *continuation* blob among those it overlaps:
+   - when none of those blobs overlaps another previous target (a plain move or a pure split),
+     the largest blob (thesis: "the largest blob inherits"; ties: larger overlap, then lower id);
+   - otherwise (combination cases) the blob sharing the most pixels with it (ties: larger blob,
+     then lower id), because there the largest blob is often someone else's.
+2. A blob that is the continuation of exactly one previous target inherits its label.
+3. A blob that is the continuation of two or more previous targets is a *merge*: its pixels are
+   divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
+   target that receives no pixel is fully occluded and is retired.
+4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
+   it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
+   both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
+   else a *birth*.
+5. A previous target with no pixel (no box) this frame is retired; if the person reappears, the
+   new blob gets a new label (the multi-camera stage restores the identity).
+
+Merge division (a sound replacement for the thesis's colour segmentation + B-spline matching):
+each merged target's template (its mask the last frame it was alone) is placed at its predicted
+centroid (last centroid + mean velocity over ``merge_motion_frames``). A blob pixel covered by
+exactly one prediction goes to that target. A pixel covered by several goes to the target whose
+appearance histogram (learned while it was alone) gives its colour the highest likelihood, or,
+without colour, to the front-most prediction (lowest bottom edge: nearest the camera). A pixel
+covered by none goes, among the targets whose prediction is within ``merge_slack_px`` of the
+nearest (distance transforms), to the most likely by colour, else to the nearest. The merged
+target's centroid is then corrected by how far its assigned pixels sit from the visible part of
+its prediction, so the prediction follows the target through the merge.
+
+Detections (:func:`track_boxes`): the same rules on boxes; a merged target that does not get the
+detection box coasts on its predicted box. Rows with an external ``track`` id >= 0 skip the
+rules: an external id present in the previous frame keeps its label; an external id seen for
+the first time, or again after one or more frames of absence, gets a new label (a label's life
+is one unbroken run of frames everywhere in mvtrack; the multi-camera stage re-attaches).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import cv2
+import numpy as np
+from scipy import ndimage
+
+from mvtrack.params import TrackerConfig
+
+__all__ = [
+    "MergeDivision",
+    "TargetTrack",
+    "TrackResult",
+    "TrackerState",
+    "track_boxes",
+    "track_masks",
+    "tracker_init",
+]
+
+_HALF_PX = 0.5  # pixel centre to pixel edge (FORMATS.md pixel convention)
+_NO_FEET = np.full(2, np.nan)
+
+
+@dataclass(frozen=True)
+class TargetTrack:
+    """What the tracker remembers of one live target.
+
+    label:                 int >= 1
+    centroids_xy:          (k, 2) float64, recent centroids (boxes: box centres), oldest first,
+                           k <= merge_motion_frames + 1
+    box_xywh:              (4,) float64, the target's box in the last frame
+    template:              (h, w) bool or None, its mask the last frame it was alone (masks only)
+    template_centroid_xy:  (2,) float64, the template's centroid in template pixel coordinates
+    colour_hist:           (bins**channels,) float64 summing to 1, or None before any colour
+    merged:                bool, whether it was part of a merge in the last frame
+    external_id:           int, the detection's own track id, -1 when tracked by the rules
+    """
+
+    label: int
+    centroids_xy: np.ndarray
+    box_xywh: np.ndarray
+    template: np.ndarray | None = None
+    template_centroid_xy: np.ndarray = field(default_factory=lambda: np.zeros(2))
+    colour_hist: np.ndarray | None = None
+    merged: bool = False
+    external_id: int = -1
+
+    def velocity_xy(self) -> np.ndarray:
+        """(2,) float64 px/frame: mean displacement over the remembered centroids."""
+        c = self.centroids_xy
+        if len(c) < 2:
+            return np.zeros(2)
+        return (c[-1] - c[0]) / (len(c) - 1)
+
+    def predicted_xy(self) -> np.ndarray:
+        """(2,) float64: the centroid expected this frame (constant velocity)."""
+        return self.centroids_xy[-1] + self.velocity_xy()
+
+
+@dataclass(frozen=True)
+class TrackerState:
+    """Frozen tracker state of one camera.
+
+    label_image:  (H, W) int32 or None, last frame's labels (None before the first mask frame
+                  and for detections)
+    targets:      live targets, sorted by label
+    next_label:   the next label to hand out (labels are never reused)
+    """
+
+    label_image: np.ndarray | None = None
+    targets: tuple[TargetTrack, ...] = ()
+    next_label: int = 1
+
+    def target(self, label: int) -> TargetTrack:
+        for t in self.targets:
+            if t.label == label:
+                return t
+        raise KeyError(f"no live target with label {label}")
+
+
+@dataclass(frozen=True)
+class MergeDivision:
+    """How one merged blob's pixels (or one detection box) were divided.
+
+    blob_id:          MVO blob id (masks) or detection row (boxes)
+    labels:           (T,) int64, the merged targets
+    predicted_xy:     (T, 2) float64, each target's predicted centroid
+    assigned_px:      (T,) int64, pixels given to each target (boxes: 1 for the target that got
+                      the detection box, 0 for those that coast on their prediction)
+    by_cover_px:      pixels covered by exactly one prediction
+    by_colour_px:     contested or uncovered pixels decided by appearance
+    by_distance_px:   uncovered pixels decided by distance to the predictions
+    by_depth_px:      contested pixels decided by depth order (no colour available)
+    """
+
+    blob_id: int
+    labels: np.ndarray
+    predicted_xy: np.ndarray
+    assigned_px: np.ndarray
+    by_cover_px: int = 0
+    by_colour_px: int = 0
+    by_distance_px: int = 0
+    by_depth_px: int = 0
+
+
+@dataclass(frozen=True)
+class TrackResult:
+    """One camera, one frame of single-camera tracking.
+
+    labels:           (N,) int64, target labels present this frame, sorted
+    label_image:      (H, W) int32, 0 background else the target label; None for detections
+    boxes_xywh:       (N, 4) float64 (FORMATS.md: a box over columns 10..20 has x=9.5, w=11)
+    areas_px:         (N,) float64, mask pixel counts (boxes: w * h)
+    blob_of_target:   (N,) int64, the MVO blob id (masks) or detection row (boxes) of each target;
+                      -1 for a merged detection target coasting on its prediction
+    feet_xy:          (N, 2) float64, the detection's own foot point, NaN rows when absent (and
+                      always NaN for masks)
+    overlap:          (P, B) previous targets x current blobs: shared pixels (int64) for masks,
+                      IoU (float64) for boxes
+    overlap_rows:     (P,) int64, the previous labels (rows of ``overlap``)
+    overlap_cols:     (B,) int64, the blob ids (masks) or detection rows (boxes)
+    births:           labels born this frame (not from a split)
+    retirements:      labels of the previous frame that are gone
+    splits:           (parent label, (new child labels...)) per splitting target
+    merges:           (blob id, (labels...)) per merged blob
+    merge_divisions:  the evidence of each merge, same order as ``merges``
+    """
+
+    labels: np.ndarray
+    label_image: np.ndarray | None
+    boxes_xywh: np.ndarray
+    areas_px: np.ndarray
+    blob_of_target: np.ndarray
+    feet_xy: np.ndarray
+    overlap: np.ndarray
+    overlap_rows: np.ndarray
+    overlap_cols: np.ndarray
+    births: tuple[int, ...] = ()
+    retirements: tuple[int, ...] = ()
+    splits: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    merges: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    merge_divisions: tuple[MergeDivision, ...] = ()
+
+    def index_of(self, label: int) -> int | None:
+        """Row of ``label`` in this frame, or None if absent."""
+        hits = np.flatnonzero(self.labels == label)
+        return int(hits[0]) if len(hits) else None
+
+
+def tracker_init() -> TrackerState:
+    """A fresh tracker for one camera: no targets, next label 1."""
+    return TrackerState()
+
+
+# --------------------------------------------------------------------------- association
+
+
+@dataclass(frozen=True)
+class _Plan:
+    """Outcome of the rules on an overlap matrix (indices into rows / columns)."""
+
+    inheritors: tuple[tuple[int, ...], ...]  # per blob: previous rows continuing in it
+    split_parent: tuple[int, ...]  # per blob with no inheritor: the row it split from, or -1
+
+
+def _associate(overlap: np.ndarray, linked: np.ndarray, sizes: np.ndarray) -> _Plan:
+    """Apply rules 1-4 of the module docstring. overlap, linked: (P, B); sizes: (B,)."""
+    n_rows, n_blobs = linked.shape
+    parents_per_blob = linked.sum(axis=0)
+    heirs: list[list[int]] = [[] for _ in range(n_blobs)]
+    for row in range(n_rows):
+        kids = np.flatnonzero(linked[row])
+        if len(kids) == 0:
+            continue
+        ov, sz = overlap[row, kids], sizes[kids]
+        if np.all(parents_per_blob[kids] == 1):
+            order = np.lexsort((kids, -ov, -sz))  # largest blob, then overlap, then lowest id
+        else:
+            order = np.lexsort((kids, -sz, -ov))  # largest overlap, then blob, then lowest id
+        heirs[int(kids[order[0]])].append(row)
+    parent = []
+    for b in range(n_blobs):
+        rows = np.flatnonzero(linked[:, b])
+        parent.append(-1 if heirs[b] or len(rows) == 0 else int(rows[np.argmax(overlap[rows, b])]))
+    return _Plan(tuple(tuple(h) for h in heirs), tuple(parent))
+
+
+def _events(
+    plan: _Plan, row_labels: np.ndarray, new_labels: dict[int, int]
+) -> tuple[tuple[int, ...], tuple[tuple[int, tuple[int, ...]], ...]]:
+    """Births and splits from a plan; new_labels maps blob index -> the label it was given."""
+    births: list[int] = []
+    kids: dict[int, list[int]] = {}
+    for b, label in sorted(new_labels.items()):
+        p = plan.split_parent[b]
+        if p < 0:
+            births.append(label)
+        else:
+            kids.setdefault(int(row_labels[p]), []).append(label)
+    splits = tuple((parent, tuple(ch)) for parent, ch in sorted(kids.items()))
+    return tuple(births), splits
+
+
+def _push_centroid(track: TargetTrack, xy: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    keep = cfg.merge_motion_frames
+    return np.concatenate([track.centroids_xy, xy[None]])[-(keep + 1) :].copy()
+
+
+# --------------------------------------------------------------------------- appearance
+
+
+def _colour_codes(frame: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    """(h, w) int64 histogram bin of every pixel; frame (h, w) or (h, w, C), uint8 or [0, 1]."""
+    f = np.asarray(frame)
+    scale = 256.0 if f.dtype == np.uint8 else 1.0
+    q = np.clip((f.astype(np.float64) / scale * cfg.colour_bins).astype(np.int64), 0,
+                cfg.colour_bins - 1)
+    if q.ndim == 2:
+        return q
+    codes = np.zeros(q.shape[:2], np.int64)
+    for ch in range(q.shape[2]):
+        codes = codes * cfg.colour_bins + q[..., ch]
+    return codes
+
+
+def _n_codes(frame: np.ndarray, cfg: TrackerConfig) -> int:
+    channels = 1 if np.ndim(frame) == 2 else np.shape(frame)[2]
+    return int(cfg.colour_bins**channels)
+
+
+def _update_hist(
+    old: np.ndarray | None, codes: np.ndarray, n_codes: int, cfg: TrackerConfig
+) -> np.ndarray:
+    h = np.bincount(codes, minlength=n_codes).astype(np.float64)
+    h /= max(h.sum(), 1.0)
+    if old is None or len(old) != n_codes:
+        return h
+    return (1.0 - cfg.colour_rate) * old + cfg.colour_rate * h
+
+
+# --------------------------------------------------------------------------- merge division
+
+
+def _paint_prediction(track: TargetTrack, shape: tuple[int, int], origin: np.ndarray) -> np.ndarray:
+    """(h, w) bool: the track's template placed at its predicted centroid, in a crop at origin."""
+    out = np.zeros(shape, bool)
+    if track.template is None:
+        return out
+    top_left = np.round(track.predicted_xy() - track.template_centroid_xy - origin).astype(int)
+    x0, y0 = int(top_left[0]), int(top_left[1])
+    th, tw = track.template.shape
+    ys, xs = slice(max(y0, 0), min(y0 + th, shape[0])), slice(max(x0, 0), min(x0 + tw, shape[1]))
+    if ys.start < ys.stop and xs.start < xs.stop:
+        out[ys, xs] = track.template[ys.start - y0 : ys.stop - y0, xs.start - x0 : xs.stop - x0]
+    return out
+
+
+def _crop_window(blob_slice: tuple[slice, slice], tracks: list[TargetTrack], shape: tuple[int, ...]
+                 ) -> tuple[slice, slice]:
+    """The blob's box grown to hold every merged target's prediction, clipped to the frame."""
+    y0, y1 = blob_slice[0].start, blob_slice[0].stop
+    x0, x1 = blob_slice[1].start, blob_slice[1].stop
+    for t in tracks:
+        if t.template is None:
+            continue
+        tl = np.round(t.predicted_xy() - t.template_centroid_xy).astype(int)
+        x0, y0 = min(x0, int(tl[0])), min(y0, int(tl[1]))
+        x1 = max(x1, int(tl[0]) + t.template.shape[1])
+        y1 = max(y1, int(tl[1]) + t.template.shape[0])
+    return slice(max(y0, 0), min(y1, shape[0])), slice(max(x0, 0), min(x1, shape[1]))
+
+
+def _colour_scores(
+    tracks: list[TargetTrack], codes: np.ndarray | None, cfg: TrackerConfig
+) -> np.ndarray | None:
+    """(T, n) log-likelihood of each pixel's colour code under each target, or None."""
+    if codes is None or any(t.colour_hist is None for t in tracks):
+        return None
+    hists = np.stack([t.colour_hist for t in tracks if t.colour_hist is not None])
+    if hists.shape[1] <= int(codes.max(initial=0)):
+        return None
+    return np.log(np.maximum(hists[:, codes], cfg.colour_floor))
+
+
+def _pick(candidates: np.ndarray, fallback: np.ndarray, scores: np.ndarray | None) -> np.ndarray:
+    """Per pixel, the candidate (T, n) bool with the best colour score, else best fallback."""
+    key = scores if scores is not None else fallback
+    return np.argmax(np.where(candidates, key, -np.inf), axis=0)
+
+
+def _divide_blob(
+    blob: np.ndarray, tracks: list[TargetTrack], codes: np.ndarray | None, origin: np.ndarray,
+    cfg: TrackerConfig,
+) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
+    """Assign each pixel of ``blob`` (a crop at ``origin``) to one of ``tracks``.
+
+    codes: (h, w) int64 colour codes of the crop, or None. Returns (h, w) int index into tracks
+    (-1 outside the blob), the counts per decision kind, and the (T, h, w) predictions.
+    """
+    pred = np.stack([_paint_prediction(t, blob.shape, origin) for t in tracks])
+    ys, xs = np.nonzero(blob)
+    cover = pred[:, ys, xs]  # (T, n)
+    n_cover = cover.sum(axis=0)
+    scores = _colour_scores(tracks, None if codes is None else codes[ys, xs], cfg)
+    who = np.full(len(ys), -1)
+    one = n_cover == 1
+    who[one] = np.argmax(cover[:, one], axis=0)
+    many = n_cover >= 2
+    bottoms = np.array([t.predicted_xy()[1] + t.template.shape[0] - t.template_centroid_xy[1]
+                        if t.template is not None else 0.0 for t in tracks])
+    depth = np.broadcast_to(bottoms[:, None], cover.shape)
+    who[many] = _pick(cover[:, many], depth[:, many], None if scores is None else scores[:, many])
+    none = n_cover == 0
+    if none.any():
+        dist = np.stack([
+            cv2.distanceTransform((~p).astype(np.uint8), cv2.DIST_L2, 5)[ys[none], xs[none]]
+            if p.any() else np.full(int(none.sum()), np.inf) for p in pred
+        ])
+        near = dist <= dist.min(axis=0) + cfg.merge_slack_px
+        who[none] = _pick(near, -dist, None if scores is None else scores[:, none])
+    coloured = scores is not None
+    counts = {
+        "by_cover_px": int(one.sum()),
+        "by_colour_px": int(many.sum() + none.sum()) if coloured else 0,
+        "by_depth_px": 0 if coloured else int(many.sum()),
+        "by_distance_px": 0 if coloured else int(none.sum()),
+    }
+    out = np.full(blob.shape, -1)
+    out[ys, xs] = who
+    return out, counts, pred
+
+
+def _corrected_centroid(track: TargetTrack, mine: np.ndarray, visible: np.ndarray,
+                        origin: np.ndarray) -> np.ndarray:
+    """Prediction + (centroid of the assigned pixels - centroid of the visible prediction)."""
+    pred = track.predicted_xy()
+    if not mine.any():
+        return pred
+    my, mx = np.nonzero(mine)
+    got = np.array([mx.mean(), my.mean()]) + origin
+    if not visible.any():
+        return got
+    vy, vx = np.nonzero(visible)
+    return pred + got - (np.array([vx.mean(), vy.mean()]) + origin)
+
+
+# --------------------------------------------------------------------------- masks
+
+
+@dataclass(frozen=True)
+class _Inputs:
+    """This frame's colour evidence and the config, passed together."""
+
+    codes: np.ndarray | None  # (H, W) int64 colour codes, None without a frame
+    frame: np.ndarray | None
+    cfg: TrackerConfig
+
+    def codes_in(self, window: tuple[slice, slice]) -> np.ndarray | None:
+        return None if self.codes is None else self.codes[window]
+
+
+@dataclass
+class _Frame:
+    """Mutable scratch for building one frame's result (never leaves this module)."""
+
+    label_image: np.ndarray
+    rows: np.ndarray  # (P,) previous labels
+    overlap: np.ndarray  # (P, B)
+    blob_ids: np.ndarray  # (B,)
+    plan: _Plan
+    next_label: int
+    new_labels: dict[int, int] = field(default_factory=dict)  # blob index -> new label
+    centroids: dict[int, np.ndarray] = field(default_factory=dict)
+    merged: set[int] = field(default_factory=set)
+    blob_of: dict[int, int] = field(default_factory=dict)
+    merges: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+    divisions: list[MergeDivision] = field(default_factory=list)
+
+
+def _mask_overlap(
+    prev: np.ndarray | None, rows: np.ndarray, cur: np.ndarray, blob_ids: np.ndarray
+) -> np.ndarray:
+    """(P, B) int64 pixel counts shared by previous label rows and current blob ids."""
+    n_rows, n_blobs = len(rows), len(blob_ids)
+    if prev is None or n_rows == 0 or n_blobs == 0:
+        return np.zeros((n_rows, n_blobs), np.int64)
+    both = (prev > 0) & (cur > 0)
+    r = np.searchsorted(rows, prev[both])
+    c = np.searchsorted(blob_ids, cur[both])
+    ok = (r < n_rows) & (rows[np.minimum(r, n_rows - 1)] == prev[both])
+    flat = np.bincount(r[ok] * n_blobs + c[ok], minlength=n_rows * n_blobs)
+    return flat.reshape(n_rows, n_blobs).astype(np.int64)
+
+
+def _merge_blob(
+    work: _Frame, blob_id: int, window: tuple[slice, slice], blob: np.ndarray,
+    tracks: list[TargetTrack], ctx: _Inputs,
+) -> None:
+    origin = np.array([window[1].start, window[0].start], np.float64)
+    who, counts, pred = _divide_blob(blob, tracks, ctx.codes_in(window), origin, ctx.cfg)
+    labels = np.array([t.label for t in tracks], np.int64)
+    view = work.label_image[window]
+    assigned = np.zeros(len(tracks), np.int64)
+    for i, t in enumerate(tracks):
+        mine = who == i
+        view[mine] = t.label
+        assigned[i] = int(mine.sum())
+        if assigned[i]:
+            work.centroids[t.label] = _corrected_centroid(t, mine, pred[i] & blob, origin)
+            work.merged.add(t.label)
+            work.blob_of[t.label] = blob_id
+    work.merges.append((blob_id, tuple(int(v) for v in labels)))
+    work.divisions.append(MergeDivision(
+        blob_id=blob_id, labels=labels,
+        predicted_xy=np.stack([t.predicted_xy() for t in tracks]), assigned_px=assigned, **counts,
+    ))
+
+
+def _mask_stats(label_image: np.ndarray) -> tuple[np.ndarray, dict[int, tuple[slice, slice]]]:
+    labels = np.unique(label_image[label_image > 0]).astype(np.int64)
+    slices: dict[int, tuple[slice, slice]] = {}
+    for lab in labels:
+        ys, xs = np.nonzero(label_image == lab)  # fine for a few targets per frame
+        slices[int(lab)] = (slice(int(ys.min()), int(ys.max()) + 1),
+                            slice(int(xs.min()), int(xs.max()) + 1))
+    return labels, slices
+
+
+def _new_mask_track(
+    old: TargetTrack | None, label: int, crop: np.ndarray, window: tuple[slice, slice],
+    ctx: _Inputs,
+) -> TargetTrack:
+    """A target's memory after an unmerged frame: template, centroid and colour refreshed."""
+    ys, xs = np.nonzero(crop)
+    origin = np.array([window[1].start, window[0].start], np.float64)
+    local = np.array([xs.mean(), ys.mean()])
+    box = np.array([origin[0] + xs.min() - _HALF_PX, origin[1] + ys.min() - _HALF_PX,
+                    xs.max() - xs.min() + 1.0, ys.max() - ys.min() + 1.0])
+    hist = None if old is None else old.colour_hist
+    codes, cfg = ctx.codes_in(window), ctx.cfg
+    if codes is not None and ctx.frame is not None:
+        hist = _update_hist(hist, codes[ys, xs], _n_codes(ctx.frame, cfg), cfg)
+    base = old or TargetTrack(label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box)
+    return replace(
+        base, centroids_xy=_push_centroid(base, origin + local, cfg), box_xywh=box,
+        template=crop.copy(), template_centroid_xy=local, colour_hist=hist, merged=False,
+    )
+
+
+def _check_mask_inputs(state: TrackerState, mvo_labels: np.ndarray,
+                       frame: np.ndarray | None) -> None:
+    if mvo_labels.ndim != 2:
+        raise ValueError(f"track_masks: mvo_labels must be (H, W), got {mvo_labels.shape}")
+    if state.label_image is not None and state.label_image.shape != mvo_labels.shape:
+        raise ValueError(
+            f"track_masks: frame size changed from {state.label_image.shape} to "
+            f"{mvo_labels.shape}"
+        )
+    if frame is not None and np.shape(frame)[:2] != mvo_labels.shape:
+        raise ValueError(f"track_masks: frame {np.shape(frame)} does not match {mvo_labels.shape}")
+
+
+def track_masks(
+    state: TrackerState, mvo_labels: np.ndarray, frame: np.ndarray | None, cfg: TrackerConfig
+) -> tuple[TrackerState, TrackResult]:
+    """One frame of mask tracking.
+
+    mvo_labels: (H, W) integer, 0 none, 1..K MVO blobs (ids need not be contiguous)
+    frame:      (H, W, C) or (H, W) uint8 (or float in [0, 1]) image, or None (no colour cue)
+    Returns the new state and the :class:`TrackResult` (label image, boxes, events, overlap).
+    """
+    cur = np.asarray(mvo_labels)
+    _check_mask_inputs(state, cur, frame)
+    blob_ids = np.unique(cur[cur > 0]).astype(np.int64)
+    rows = np.array([t.label for t in state.targets], np.int64)
+    overlap = _mask_overlap(state.label_image, rows, cur, blob_ids)
+    slices = ndimage.find_objects(cur.astype(np.int64)) if len(blob_ids) else []
+    sizes = np.array([int((cur[slices[b - 1]] == b).sum()) for b in blob_ids], np.int64)
+    plan = _associate(overlap, overlap >= cfg.min_overlap_px, sizes)
+    ctx = _Inputs(None if frame is None else _colour_codes(frame, cfg), frame, cfg)
+
+    work = _Frame(np.zeros(cur.shape, np.int32), rows, overlap, blob_ids, plan, state.next_label)
+    for b, blob_id in enumerate(blob_ids):
+        window = slices[blob_id - 1]
+        heirs = plan.inheritors[b]
+        if len(heirs) >= 2:
+            tracks = [state.targets[r] for r in heirs]
+            grown = _crop_window(window, tracks, cur.shape)
+            _merge_blob(work, int(blob_id), grown, cur[grown] == blob_id, tracks, ctx)
+            continue
+        if heirs:
+            label = int(rows[heirs[0]])
+        else:
+            label, work.next_label = work.next_label, work.next_label + 1
+            work.new_labels[b] = label
+        work.label_image[window][cur[window] == blob_id] = label
+        work.blob_of[label] = int(blob_id)
+    return _finish_masks(state, work, ctx)
+
+
+def _finish_masks(
+    state: TrackerState, work: _Frame, ctx: _Inputs
+) -> tuple[TrackerState, TrackResult]:
+    cfg, rows = ctx.cfg, work.rows
+    labels, slices = _mask_stats(work.label_image)
+    old = {t.label: t for t in state.targets}
+    tracks, boxes, areas = [], [], []
+    for lab in labels:
+        window = slices[int(lab)]
+        crop = work.label_image[window] == lab
+        fresh = _new_mask_track(old.get(int(lab)), int(lab), crop, window, ctx)
+        boxes.append(fresh.box_xywh)
+        areas.append(float(crop.sum()))
+        if int(lab) in work.merged:  # keep the pre-merge template and colours
+            prev = old[int(lab)]
+            fresh = replace(prev, centroids_xy=_push_centroid(prev, work.centroids[int(lab)], cfg),
+                            box_xywh=fresh.box_xywh, merged=True)
+        tracks.append(fresh)
+    births, splits = _events(work.plan, rows, work.new_labels)
+    present = set(labels.tolist())
+    result = TrackResult(
+        labels=labels,
+        label_image=work.label_image,
+        boxes_xywh=np.array(boxes, np.float64).reshape(-1, 4),
+        areas_px=np.array(areas, np.float64),
+        blob_of_target=np.array([work.blob_of[int(v)] for v in labels], np.int64),
+        feet_xy=np.full((len(labels), 2), np.nan),
+        overlap=work.overlap,
+        overlap_rows=rows.copy(),
+        overlap_cols=work.blob_ids,
+        births=births,
+        retirements=tuple(int(v) for v in rows if int(v) not in present),
+        splits=splits,
+        merges=tuple(work.merges),
+        merge_divisions=tuple(work.divisions),
+    )
+    new_state = TrackerState(label_image=work.label_image.copy(), targets=tuple(tracks),
+                             next_label=work.next_label)
+    return new_state, result
+
+
+# --------------------------------------------------------------------------- boxes
+
+
+def _iou(a_xywh: np.ndarray, b_xywh: np.ndarray) -> np.ndarray:
+    """(len(a), len(b)) float64 intersection over union of two box lists."""
+    a, b = a_xywh[:, None, :], b_xywh[None, :, :]
+    w = np.clip(np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2])
+                - np.maximum(a[..., 0], b[..., 0]), 0, None)
+    h = np.clip(np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3])
+                - np.maximum(a[..., 1], b[..., 1]), 0, None)
+    inter = w * h
+    union = a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter
+    return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
+
+
+def _box_centre(box: np.ndarray) -> np.ndarray:
+    return np.array([box[0] + box[2] / 2, box[1] + box[3] / 2])
+
+
+def _box_track(old: TargetTrack | None, label: int, box: np.ndarray, ext: int,
+               cfg: TrackerConfig, merged: bool = False) -> TargetTrack:
+    base = old or TargetTrack(label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box,
+                              external_id=ext)
+    return replace(base, centroids_xy=_push_centroid(base, _box_centre(box), cfg),
+                   box_xywh=box.copy(), merged=merged)
+
+
+def _predicted_box(t: TargetTrack) -> np.ndarray:
+    box = t.box_xywh.copy()
+    box[:2] += t.velocity_xy()
+    return box
+
+
+@dataclass
+class _BoxFrame:
+    """Mutable scratch for one detections frame: label -> (box, detection row or -1, foot)."""
+
+    rows: np.ndarray  # (P,) previous labels
+    iou: np.ndarray  # (P, N)
+    own_rows: np.ndarray  # previous rows tracked by the rules (no external id)
+    own_cols: np.ndarray  # detection rows without an external id
+    plan: _Plan  # the rules on iou[own_rows, own_cols]
+    next_label: int
+    new_labels: dict[int, int] = field(default_factory=dict)  # detection row -> new label
+    out: dict[int, tuple[np.ndarray, int, np.ndarray]] = field(default_factory=dict)
+    tracks: dict[int, TargetTrack] = field(default_factory=dict)
+    merges: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+    divisions: list[MergeDivision] = field(default_factory=list)
+
+    def take_label(self, old: TargetTrack | None, row: int) -> int:
+        """The old target's label, or a new one recorded for detection row ``row``."""
+        if old is not None:
+            return old.label
+        label, self.next_label = self.next_label, self.next_label + 1
+        self.new_labels[row] = label
+        return label
+
+
+def _merge_box(work: _BoxFrame, row: int, box: np.ndarray, foot: np.ndarray,
+               heirs: list[TargetTrack], cfg: TrackerConfig) -> None:
+    """The heir whose predicted box fits the detection best gets it; the others coast."""
+    predicted = np.stack([_predicted_box(t) for t in heirs])
+    best = int(np.argmax(_iou(predicted, box[None])[:, 0]))
+    for i, t in enumerate(heirs):
+        mine = box if i == best else predicted[i]
+        work.out[t.label] = (mine, row if i == best else -1, foot if i == best else _NO_FEET)
+        work.tracks[t.label] = _box_track(t, t.label, mine, t.external_id, cfg, merged=True)
+    work.merges.append((row, tuple(t.label for t in heirs)))
+    work.divisions.append(MergeDivision(
+        blob_id=row, labels=np.array([t.label for t in heirs], np.int64),
+        predicted_xy=np.stack([_box_centre(p) for p in predicted]),
+        assigned_px=(np.arange(len(heirs)) == best).astype(np.int64),
+    ))
+
+
+def _check_box_inputs(boxes_xywh: np.ndarray, tracks: np.ndarray | None,
+                      feet_xy: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    boxes = np.asarray(boxes_xywh, np.float64).reshape(-1, 4)
+    n = len(boxes)
+    ext = np.full(n, -1, np.int64) if tracks is None else np.asarray(tracks, np.int64).reshape(-1)
+    feet = np.full((n, 2), np.nan) if feet_xy is None else np.asarray(feet_xy, np.float64)
+    if len(ext) != n or feet.shape != (n, 2):
+        raise ValueError(f"track_boxes: {n} boxes but tracks {ext.shape}, feet {feet.shape}")
+    ids = ext[ext >= 0]
+    if len(np.unique(ids)) != len(ids):
+        raise ValueError(f"track_boxes: duplicate external track ids in one frame: {ids.tolist()}")
+    return boxes, ext, feet
+
+
+def track_boxes(
+    state: TrackerState, boxes_xywh: np.ndarray, tracks: np.ndarray | None, cfg: TrackerConfig,
+    feet_xy: np.ndarray | None = None,
+) -> tuple[TrackerState, TrackResult]:
+    """One frame of detections tracking (a camera given as detections, FORMATS.md).
+
+    boxes_xywh: (N, 4) float64; tracks: (N,) int64 external ids, -1 when absent (or None);
+    feet_xy: (N, 2) float64 the detector's foot points, NaN rows when absent (or None).
+    Rows with an external id follow it (module docstring); the others follow the overlap rules
+    with IoU > ``min_box_iou``, against previous targets that had no external id.
+    """
+    boxes, ext, feet = _check_box_inputs(boxes_xywh, tracks, feet_xy)
+    prev = state.targets
+    rows = np.array([t.label for t in prev], np.int64)
+    iou = _iou(np.array([t.box_xywh for t in prev], np.float64).reshape(-1, 4), boxes)
+    own_rows = np.array([i for i, t in enumerate(prev) if t.external_id < 0], np.int64)
+    own_cols = np.flatnonzero(ext < 0)
+    sub = iou[np.ix_(own_rows, own_cols)]
+    plan = _associate(sub, sub > cfg.min_box_iou, boxes[own_cols, 2] * boxes[own_cols, 3])
+    work = _BoxFrame(rows, iou, own_rows, own_cols, plan, state.next_label)
+    by_ext = {t.external_id: t for t in prev if t.external_id >= 0}
+    for j in np.flatnonzero(ext >= 0):
+        old = by_ext.get(int(ext[j]))
+        label = work.take_label(old, int(j))
+        work.out[label] = (boxes[j], int(j), feet[j])
+        work.tracks[label] = _box_track(old, label, boxes[j], int(ext[j]), cfg)
+    for b, j in enumerate(own_cols):
+        heirs = [prev[own_rows[r]] for r in plan.inheritors[b]]
+        if len(heirs) >= 2:
+            _merge_box(work, int(j), boxes[j], feet[j], heirs, cfg)
+            continue
+        old = heirs[0] if heirs else None
+        label = work.take_label(old, int(j))
+        work.out[label] = (boxes[j], int(j), feet[j])
+        work.tracks[label] = _box_track(old, label, boxes[j], -1, cfg)
+    return _finish_boxes(work)
+
+
+def _finish_boxes(work: _BoxFrame) -> tuple[TrackerState, TrackResult]:
+    labels = np.array(sorted(work.out), np.int64)
+    # Births and splits: detection rows with a new label; a split parent only for rule-tracked rows.
+    rows = work.rows
+    col_of = {int(j): b for b, j in enumerate(work.own_cols)}
+    births: list[int] = []
+    kids: dict[int, list[int]] = {}
+    for j, label in sorted(work.new_labels.items(), key=lambda kv: kv[1]):
+        b = col_of.get(j)
+        p = -1 if b is None else work.plan.split_parent[b]
+        if p < 0:
+            births.append(label)
+        else:
+            kids.setdefault(int(rows[work.own_rows[p]]), []).append(label)
+    present = set(labels.tolist())
+    result = TrackResult(
+        labels=labels,
+        label_image=None,
+        boxes_xywh=np.array([work.out[int(v)][0] for v in labels], np.float64).reshape(-1, 4),
+        areas_px=np.array([work.out[int(v)][0][2] * work.out[int(v)][0][3] for v in labels]),
+        blob_of_target=np.array([work.out[int(v)][1] for v in labels], np.int64),
+        feet_xy=np.array([work.out[int(v)][2] for v in labels], np.float64).reshape(-1, 2),
+        overlap=work.iou,
+        overlap_rows=rows,
+        overlap_cols=np.arange(work.iou.shape[1], dtype=np.int64),
+        births=tuple(births),
+        retirements=tuple(int(v) for v in rows if int(v) not in present),
+        splits=tuple((p, tuple(ch)) for p, ch in sorted(kids.items())),
+        merges=tuple(work.merges),
+        merge_divisions=tuple(work.divisions),
+    )
+    new_state = TrackerState(label_image=None,
+                             targets=tuple(work.tracks[int(v)] for v in labels),
+                             next_label=work.next_label)
+    return new_state, result

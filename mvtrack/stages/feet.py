@@ -1,0 +1,213 @@
+"""Feet and height of a target (SPEC §3, thesis §3.2.4).
+
+Two methods, both always available:
+
+- :func:`feet_pca` (the thesis's): PCA of the mask's pixel coordinates gives the height axis;
+  the mask is rotated upright, its upright bounding box taken, and the outline points closest to
+  the box's two bottom corners found; the feet are their midpoint, rotated back to the image.
+  The height is the distance from the feet to the top of the upright box.
+- :func:`feet_bbox` (Khan & Shah's baseline): the bottom centre of the axis-aligned box.
+
+Cameras given as detections use :func:`feet_from_box`. :func:`target_feet` applies the method
+chosen in :class:`~mvtrack.params.FeetConfig` to every target of a
+:class:`~mvtrack.stages.blobtrack.TrackResult`.
+
+Pixel convention (FORMATS.md): pixel centres are at integer coordinates, so a pixel covers
+[x - 0.5, x + 0.5]. Boxes and feet refer to the silhouette's edges, not its pixel centres: the
+bottom of a mask whose lowest row is 40 is y = 40.5.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+
+from mvtrack.params import FeetConfig
+from mvtrack.stages.blobtrack import TrackResult
+
+__all__ = [
+    "Feet",
+    "feet_bbox",
+    "feet_from_box",
+    "feet_pca",
+    "target_feet",
+    "target_feet_records",
+]
+
+_HALF_PX = 0.5  # half a pixel: from a pixel centre to the pixel's edge (pixel convention)
+_IMAGE_UP = np.array([0.0, -1.0])
+
+
+@dataclass(frozen=True)
+class Feet:
+    """The feet of one target, with what the viewer draws.
+
+    point:           (2,) float64, feet [x, y] in image pixels
+    height_px:       float, distance from the feet to the top of the (upright) box, pixels
+    up:              (2,) float64 unit vector, the target's height axis pointing to the head
+                     (image coordinates: [0, -1] is straight up)
+    box_corners_xy:  (4, 2) float64, the upright box's corners in image pixels, in the order
+                     top-left, top-right, bottom-right, bottom-left of the upright view
+    outline_xy:      (2, 2) float64, the two outline points closest to the bottom-left and
+                     bottom-right corners (pca); the box's bottom corners for the box methods
+    method:          "pca", "bbox" or "box" (detections)
+    """
+
+    point: np.ndarray
+    height_px: float
+    up: np.ndarray
+    box_corners_xy: np.ndarray
+    outline_xy: np.ndarray
+    method: str
+
+
+def _mask_points(mask: np.ndarray, offset_xy: tuple[float, float]) -> np.ndarray:
+    mask = np.asarray(mask)
+    if mask.ndim != 2:
+        raise ValueError(f"feet: mask must be (H, W), got shape {mask.shape}")
+    ys, xs = np.nonzero(mask)
+    if len(xs) == 0:
+        raise ValueError("feet: the mask is empty")
+    pts = np.stack([xs, ys], axis=1).astype(np.float64)
+    return pts + np.asarray(offset_xy, np.float64)
+
+
+def _height_axis(pts: np.ndarray, min_elongation: float) -> np.ndarray:
+    """Unit 'up' vector: the principal direction (of the four ±e1, ±e2) closest to image up.
+
+    Taking the closest of both axes, not always the major one, keeps a blob that is wider than
+    tall (a person half inside the frame, two people side by side) upright instead of turning it
+    by 90 degrees. A mask too round for PCA to give a direction (sqrt(l1/l2) below
+    ``min_elongation``, a single pixel) keeps image up.
+    """
+    if len(pts) < 2:
+        return _IMAGE_UP.copy()
+    cov = np.cov(pts, rowvar=False)
+    evals, evecs = np.linalg.eigh(cov)  # ascending
+    major, minor = float(evals[1]), float(evals[0])
+    if major <= 0.0 or major < min_elongation**2 * max(minor, 0.0):
+        return _IMAGE_UP.copy()
+    cands = np.concatenate([evecs.T, -evecs.T], axis=0)  # (4, 2)
+    best = int(np.argmax(cands @ _IMAGE_UP))
+    up = cands[best]
+    return up / np.linalg.norm(up)
+
+
+def feet_pca(
+    mask: np.ndarray, offset_xy: tuple[float, float] = (0.0, 0.0), cfg: FeetConfig | None = None
+) -> Feet:
+    """Thesis feet: PCA upright box, outline points nearest its bottom corners (SPEC §3).
+
+    mask:       (H, W) bool, the target's pixels (the whole frame, or a crop)
+    offset_xy:  image coordinates [x, y] of the crop's pixel (0, 0)
+    Returns :class:`Feet` in image pixels. Raises ValueError on an empty mask.
+    """
+    cfg = cfg or FeetConfig()
+    mask = np.asarray(mask, bool)
+    pts = _mask_points(mask, offset_xy)
+    up = _height_axis(pts, cfg.min_elongation)
+    down = -up
+    right = np.array([down[1], -down[0]])  # (right, down) is a right-handed image frame
+    centre = pts.mean(axis=0)
+    rel = pts - centre
+    u, v = rel @ right, rel @ down
+    u0, u1 = u.min() - _HALF_PX, u.max() + _HALF_PX
+    v0, v1 = v.min() - _HALF_PX, v.max() + _HALF_PX
+    corners_uv = np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
+
+    contours, _ = cv2.findContours(
+        mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
+    )
+    outline = np.concatenate([c.reshape(-1, 2) for c in contours]).astype(np.float64)
+    outline = outline + np.asarray(offset_xy, np.float64) - centre
+    outline_uv = np.stack([outline @ right, outline @ down], axis=1)
+    picks = []
+    for corner in (corners_uv[3], corners_uv[2]):  # bottom-left, bottom-right
+        d2 = ((outline_uv - corner) ** 2).sum(axis=1)
+        picks.append(outline_uv[int(np.argmin(d2))])
+    picks_uv = np.array(picks)
+    # Outline points are boundary pixel centres; the silhouette ends half a pixel further down.
+    feet_uv = picks_uv.mean(axis=0) + np.array([0.0, _HALF_PX])
+
+    def to_image(uv: np.ndarray) -> np.ndarray:
+        uv = np.atleast_2d(uv)
+        return centre + uv[:, :1] * right + uv[:, 1:2] * down
+
+    return Feet(
+        point=to_image(feet_uv)[0],
+        height_px=float(feet_uv[1] - v0),
+        up=up,
+        box_corners_xy=to_image(corners_uv),
+        outline_xy=to_image(picks_uv),
+        method="pca",
+    )
+
+
+def _box_feet(box_xywh: np.ndarray, point: np.ndarray, method: str) -> Feet:
+    x, y, w, h = (float(v) for v in box_xywh)
+    corners = np.array([[x, y], [x + w, y], [x + w, y + h], [x, y + h]])
+    return Feet(
+        point=np.asarray(point, np.float64),
+        height_px=h,
+        up=_IMAGE_UP.copy(),
+        box_corners_xy=corners,
+        outline_xy=corners[[3, 2]].copy(),
+        method=method,
+    )
+
+
+def feet_bbox(mask: np.ndarray, offset_xy: tuple[float, float] = (0.0, 0.0)) -> Feet:
+    """Baseline feet: bottom centre of the mask's axis-aligned box; height = the box height.
+
+    mask: (H, W) bool (frame or crop at ``offset_xy``). Raises ValueError on an empty mask.
+    """
+    pts = _mask_points(np.asarray(mask, bool), offset_xy)
+    lo, hi = pts.min(axis=0) - _HALF_PX, pts.max(axis=0) + _HALF_PX
+    box = np.array([lo[0], lo[1], hi[0] - lo[0], hi[1] - lo[1]])
+    return _box_feet(box, np.array([(lo[0] + hi[0]) / 2, hi[1]]), "bbox")
+
+
+def feet_from_box(box_xywh: np.ndarray, foot_xy: np.ndarray | None = None) -> Feet:
+    """Detections: the given foot point if finite, else the box's bottom centre; height = h.
+
+    box_xywh: (4,) float64 (FORMATS.md); foot_xy: (2,) float64 or None / NaNs when absent.
+    """
+    box = np.asarray(box_xywh, np.float64).reshape(4)
+    if foot_xy is not None and np.all(np.isfinite(foot_xy)):
+        point = np.asarray(foot_xy, np.float64).reshape(2)
+    else:
+        point = np.array([box[0] + box[2] / 2, box[1] + box[3]])
+    return _box_feet(box, point, "box")
+
+
+def target_feet_records(result: TrackResult, cfg: FeetConfig) -> tuple[Feet, ...]:
+    """:class:`Feet` of every target of ``result`` (same order as ``result.labels``).
+
+    Mask targets use ``cfg.method`` on their pixels in ``result.label_image``; box targets (no
+    label image) use :func:`feet_from_box` with the detection's foot point when it has one.
+    """
+    records: list[Feet] = []
+    for i, label in enumerate(result.labels):
+        box = result.boxes_xywh[i]
+        if result.label_image is None:
+            records.append(feet_from_box(box, result.feet_xy[i]))
+            continue
+        x0, y0, w, h = (int(v) for v in np.rint(box + [_HALF_PX, _HALF_PX, 0.0, 0.0]))
+        x1, y1 = x0 + w, y0 + h
+        crop = result.label_image[y0:y1, x0:x1] == label
+        offset = (float(x0), float(y0))
+        if cfg.method == "pca":
+            records.append(feet_pca(crop, offset, cfg))
+        else:
+            records.append(feet_bbox(crop, offset))
+    return tuple(records)
+
+
+def target_feet(result: TrackResult, cfg: FeetConfig) -> tuple[np.ndarray, np.ndarray]:
+    """Feet (N, 2) float64 [x, y] and heights (N,) float64 pixels of every target, by cfg.method."""
+    records = target_feet_records(result, cfg)
+    if not records:
+        return np.zeros((0, 2)), np.zeros(0)
+    return np.stack([r.point for r in records]), np.array([r.height_px for r in records])
