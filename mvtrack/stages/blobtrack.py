@@ -27,14 +27,14 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
 
 Merge division (a sound replacement for the thesis's colour segmentation + B-spline matching):
 each merged target's template (its mask the last frame it was alone) is placed at its predicted
-centroid (last centroid + mean velocity over ``merge_motion_frames``). A blob pixel covered by
-exactly one prediction goes to that target. A pixel covered by several goes to the target whose
-appearance histogram (learned while it was alone) gives its colour the highest likelihood, or,
-without colour, to the front-most prediction (lowest bottom edge: nearest the camera). A pixel
-covered by none goes, among the targets whose prediction is within ``merge_slack_px`` of the
-nearest (distance transforms), to the most likely by colour, else to the nearest. The merged
-target's centroid is then corrected by how far its assigned pixels sit from the visible part of
-its prediction, so the prediction follows the target through the merge.
+centroid (last centroid + mean velocity over ``merge_motion_frames``). Each blob pixel scores,
+for each target, a spatial term (0 inside its prediction, -d / ``merge_distance_px`` at d px
+outside, from distance transforms) plus, when a frame is given, the log-likelihood of its colour
+under the target's appearance histogram (learned while it was alone); the best target takes the
+pixel. Without colour, a pixel inside several predictions goes to the front-most (lowest bottom
+edge: nearest the camera), a pixel inside none to the nearest. The merged target's centroid is
+then corrected by how far its assigned pixels sit from the part of its prediction that the other
+targets do not explain, so the prediction follows the target through the merge.
 
 Detections (:func:`track_boxes`): the same rules on boxes; a merged target that does not get the
 detection box coasts on its predicted box. Rows with an external ``track`` id >= 0 skip the
@@ -133,7 +133,7 @@ class MergeDivision:
     predicted_xy:     (T, 2) float64, each target's predicted centroid
     assigned_px:      (T,) int64, pixels given to each target (boxes: 1 for the target that got
                       the detection box, 0 for those that coast on their prediction)
-    by_cover_px:      pixels covered by exactly one prediction
+    by_cover_px:      pixels covered by exactly one prediction, and given to it
     by_colour_px:     contested or uncovered pixels decided by appearance
     by_distance_px:   uncovered pixels decided by distance to the predictions
     by_depth_px:      contested pixels decided by depth order (no colour available)
@@ -328,10 +328,12 @@ def _colour_scores(
     return np.log(np.maximum(hists[:, codes], cfg.colour_floor))
 
 
-def _pick(candidates: np.ndarray, fallback: np.ndarray, scores: np.ndarray | None) -> np.ndarray:
-    """Per pixel, the candidate (T, n) bool with the best colour score, else best fallback."""
-    key = scores if scores is not None else fallback
-    return np.argmax(np.where(candidates, key, -np.inf), axis=0)
+def _depth_key(tracks: list[TargetTrack]) -> np.ndarray:
+    """(T,) float64: predicted bottom edge of each target (larger = nearer the camera)."""
+    return np.array([
+        t.predicted_xy()[1] + t.template.shape[0] - t.template_centroid_xy[1]
+        if t.template is not None else -np.inf for t in tracks
+    ])
 
 
 def _divide_blob(
@@ -340,37 +342,39 @@ def _divide_blob(
 ) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
     """Assign each pixel of ``blob`` (a crop at ``origin``) to one of ``tracks``.
 
+    Spatial evidence: a pixel d px outside a target's prediction scores -d / merge_distance_px
+    for it (0 inside). With colour, each pixel goes to the best spatial + log colour likelihood;
+    without, to the target whose prediction covers it, the front-most when several do, the
+    nearest when none does.
     codes: (h, w) int64 colour codes of the crop, or None. Returns (h, w) int index into tracks
-    (-1 outside the blob), the counts per decision kind, and the (T, h, w) predictions.
+    (-1 outside the blob), the counts per decision kind, and the (T, h, w) bool predictions.
     """
     pred = np.stack([_paint_prediction(t, blob.shape, origin) for t in tracks])
     ys, xs = np.nonzero(blob)
-    cover = pred[:, ys, xs]  # (T, n)
+    far = float(sum(blob.shape))  # farther than any pixel of the crop
+    dist = np.stack([
+        cv2.distanceTransform((~p).astype(np.uint8), cv2.DIST_L2, 5)[ys, xs]
+        if p.any() else np.full(len(ys), far) for p in pred
+    ]).astype(np.float64)
+    cover = dist == 0
     n_cover = cover.sum(axis=0)
+    spatial = -dist / cfg.merge_distance_px
     scores = _colour_scores(tracks, None if codes is None else codes[ys, xs], cfg)
-    who = np.full(len(ys), -1)
-    one = n_cover == 1
-    who[one] = np.argmax(cover[:, one], axis=0)
-    many = n_cover >= 2
-    bottoms = np.array([t.predicted_xy()[1] + t.template.shape[0] - t.template_centroid_xy[1]
-                        if t.template is not None else 0.0 for t in tracks])
-    depth = np.broadcast_to(bottoms[:, None], cover.shape)
-    who[many] = _pick(cover[:, many], depth[:, many], None if scores is None else scores[:, many])
-    none = n_cover == 0
-    if none.any():
-        dist = np.stack([
-            cv2.distanceTransform((~p).astype(np.uint8), cv2.DIST_L2, 5)[ys[none], xs[none]]
-            if p.any() else np.full(int(none.sum()), np.inf) for p in pred
-        ])
-        near = dist <= dist.min(axis=0) + cfg.merge_slack_px
-        who[none] = _pick(near, -dist, None if scores is None else scores[:, none])
-    coloured = scores is not None
-    counts = {
-        "by_cover_px": int(one.sum()),
-        "by_colour_px": int(many.sum() + none.sum()) if coloured else 0,
-        "by_depth_px": 0 if coloured else int(many.sum()),
-        "by_distance_px": 0 if coloured else int(none.sum()),
-    }
+    if scores is not None:
+        who = np.argmax(spatial + scores, axis=0)
+        by_cover = int(((n_cover == 1) & cover[who, np.arange(len(ys))]).sum())
+        counts = {"by_cover_px": by_cover, "by_colour_px": len(ys) - by_cover}
+    else:
+        many = n_cover >= 2
+        key = spatial.copy()
+        depth = np.broadcast_to(_depth_key(tracks)[:, None], cover.shape)
+        key[:, many] = np.where(cover[:, many], depth[:, many], -np.inf)
+        who = np.argmax(key, axis=0)
+        counts = {
+            "by_cover_px": int((n_cover == 1).sum()),
+            "by_depth_px": int(many.sum()),
+            "by_distance_px": int((n_cover == 0).sum()),
+        }
     out = np.full(blob.shape, -1)
     out[ys, xs] = who
     return out, counts, pred
@@ -452,7 +456,8 @@ def _merge_blob(
         view[mine] = t.label
         assigned[i] = int(mine.sum())
         if assigned[i]:
-            work.centroids[t.label] = _corrected_centroid(t, mine, pred[i] & blob, origin)
+            visible = pred[i] & blob & ((who == i) | (who < 0))  # not explained by the others
+            work.centroids[t.label] = _corrected_centroid(t, mine, visible, origin)
             work.merged.add(t.label)
             work.blob_of[t.label] = blob_id
     work.merges.append((blob_id, tuple(int(v) for v in labels)))

@@ -1,0 +1,261 @@
+"""Single-camera tracker (SPEC §2): hand-built cases, edge cases and a labels property."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from mvtrack.params import TrackerConfig
+from mvtrack.stages.blobtrack import TrackerState, track_boxes, track_masks, tracker_init
+
+CFG = TrackerConfig()
+H, W = 120, 200
+
+
+def blobs(*rects: tuple[int, int, int, int], shape: tuple[int, int] = (H, W)) -> np.ndarray:
+    """MVO label image from rectangles (x0, y0, x1, y1), inclusive; touching ones merge."""
+    mask = np.zeros(shape, bool)
+    for x0, y0, x1, y1 in rects:
+        mask[y0 : y1 + 1, x0 : x1 + 1] = True
+    labels, _ = ndimage.label(mask)
+    return labels.astype(np.int32)
+
+
+def run(frames: list[np.ndarray], state: TrackerState | None = None):
+    state = state or tracker_init()
+    results = []
+    for mvo in frames:
+        state, res = track_masks(state, mvo, None, CFG)
+        results.append(res)
+    return state, results
+
+
+# --------------------------------------------------------------------------- hand-built
+
+
+def test_one_blob_moving_keeps_its_label_and_box_convention() -> None:
+    _, res = run([blobs((10 + 3 * t, 20, 20 + 3 * t, 60)) for t in range(5)])
+    assert [r.labels.tolist() for r in res] == [[1]] * 5
+    assert res[0].births == (1,) and all(r.births == () for r in res[1:])
+    # columns 10..20 -> x = 9.5, w = 11 (FORMATS.md)
+    np.testing.assert_allclose(res[0].boxes_xywh, [[9.5, 19.5, 11.0, 41.0]])
+    assert res[0].areas_px.tolist() == [11 * 41]
+    assert res[1].overlap.tolist() == [[8 * 41]]  # shared columns 13..20
+    assert res[1].overlap_rows.tolist() == [1] and res[1].overlap_cols.tolist() == [1]
+
+
+def test_empty_frames_and_retirement() -> None:
+    state, res = run([blobs(), blobs((10, 10, 20, 20)), blobs(), blobs((10, 10, 20, 20))])
+    assert res[0].labels.size == 0 and res[0].label_image is not None
+    assert not res[0].label_image.any()
+    assert res[1].births == (1,)
+    assert res[2].retirements == (1,) and res[2].labels.size == 0
+    assert res[3].births == (2,)  # the same place again: a new label, never 1
+    assert state.next_label == 3
+
+
+def test_no_overlap_means_a_new_label() -> None:
+    _, res = run([blobs((10, 10, 20, 20)), blobs((50, 10, 60, 20))])
+    assert res[1].labels.tolist() == [2]
+    assert res[1].births == (2,) and res[1].retirements == (1,)
+
+
+def test_split_largest_inherits() -> None:
+    frames = [blobs((10, 10, 60, 60)), blobs((10, 10, 25, 60), (30, 10, 60, 60))]
+    _, res = run(frames)
+    r = res[1]
+    assert r.splits == ((1, (2,)),)
+    assert r.births == () and r.retirements == ()
+    big = r.label_image[30, 45]
+    small = r.label_image[30, 15]
+    assert (big, small) == (1, 2)
+
+
+def test_combination_target_in_two_blobs_follows_its_larger_share() -> None:
+    # targets 1 (left) and 2 (right); then blob X = target 1 plus a sliver of target 2's old
+    # place, and blob Y = most of target 2's old place.
+    frames = [
+        blobs((10, 10, 30, 60), (40, 10, 70, 60)),
+        blobs((10, 10, 42, 60), (46, 10, 70, 60)),
+    ]
+    _, res = run(frames)
+    r = res[1]
+    assert r.merges == () and r.splits == () and r.births == ()
+    assert r.label_image[30, 20] == 1 and r.label_image[30, 60] == 2
+    assert r.overlap.tolist() == [[21 * 51, 0], [3 * 51, 25 * 51]]
+
+
+def test_combination_merge_plus_split_off_piece() -> None:
+    # blob X covers both targets' old places; blob Y is a small piece of target 2's old place.
+    frames = [
+        blobs((10, 10, 30, 60), (40, 10, 70, 60)),
+        blobs((10, 10, 62, 60), (66, 10, 70, 60)),
+    ]
+    _, res = run(frames)
+    r = res[1]
+    assert r.merges == ((1, (1, 2)),)
+    assert r.splits == ((2, (3,)),)
+    assert r.label_image[30, 68] == 3
+    assert r.label_image[30, 15] == 1 and r.label_image[30, 55] == 2
+
+
+def crossing(t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Two 20x40 squares crossing horizontally, B lower (in front). Returns mvo, frame, truth.
+
+    truth: (H, W) int, 1 where A is visible, 2 where B is visible.
+    """
+    ax, bx = 10 + 4 * t, 170 - 4 * t
+    truth = np.zeros((H, W), np.int32)
+    truth[30:70, ax : ax + 20] = 1
+    truth[50:90, bx : bx + 20] = 2  # B occludes A
+    frame = np.zeros((H, W, 3), np.uint8)
+    frame[truth == 1] = (200, 40, 30)
+    frame[truth == 2] = (30, 60, 190)
+    mvo, _ = ndimage.label(truth > 0)
+    return mvo.astype(np.int32), frame, truth
+
+
+@pytest.mark.parametrize("use_colour", [True, False])
+def test_merge_of_two_crossing_squares_keeps_both_labels(use_colour: bool) -> None:
+    state = tracker_init()
+    merged_frames, accuracies = 0, []
+    for t in range(40):
+        mvo, frame, truth = crossing(t)
+        state, r = track_masks(state, mvo, frame if use_colour else None, CFG)
+        assert r.labels.tolist() == [1, 2], f"frame {t}"
+        assert r.births == (() if t else (1, 2)) and r.retirements == ()
+        img = r.label_image
+        assert img is not None
+        if r.merges:
+            merged_frames += 1
+            assert r.merges == ((1, (1, 2)),)
+            d = r.merge_divisions[0]
+            assert d.labels.tolist() == [1, 2] and d.assigned_px.sum() == (truth > 0).sum()
+            accuracies.append(float((img[truth > 0] == truth[truth > 0]).mean()))
+        # A's box stays where A is: its left edge is exact while A is not occluded on that side
+        np.testing.assert_allclose(r.boxes_xywh[0, 0], 10 + 4 * t - 0.5, atol=1.0)
+        np.testing.assert_allclose(r.boxes_xywh[1, 0], 170 - 4 * t - 0.5, atol=1.0)
+    assert merged_frames == 5
+    assert min(accuracies) >= 0.97
+
+
+def test_fully_occluded_merged_target_is_retired_and_never_comes_back() -> None:
+    state = tracker_init()
+    # A (small) walks behind B (big, static): full occlusion for a few frames.
+    labels_seen = []
+    for t in range(30):
+        truth = np.zeros((H, W), np.int32)
+        ax = 20 + 4 * t
+        truth[40:60, ax : ax + 10] = 1
+        truth[30:80, 80:120] = 2
+        mvo, _ = ndimage.label(truth > 0)
+        state, r = track_masks(state, mvo.astype(np.int32), None, CFG)
+        labels_seen.append(r.labels.tolist())
+    assert labels_seen[0] == [1, 2]  # raster order: B (big) is blob 1, A is blob 2
+    assert labels_seen[14] == [1, 2]  # merged, A partly visible
+    assert labels_seen[15] == [1]  # A fully hidden: retired
+    assert all(ls == [1] for ls in labels_seen[15:26])
+    assert labels_seen[26:] == [[1, 3]] * 4  # A emerges with a new label
+
+
+def test_bad_inputs_are_named() -> None:
+    state, _ = track_masks(tracker_init(), blobs(), None, CFG)
+    with pytest.raises(ValueError, match="frame size changed"):
+        track_masks(state, blobs(shape=(50, 50)), None, CFG)
+    with pytest.raises(ValueError, match=r"\(H, W\)"):
+        track_masks(tracker_init(), np.zeros((4, 4, 3), np.int32), None, CFG)
+
+
+def test_inputs_are_not_mutated_and_results_are_independent() -> None:
+    mvo = blobs((10, 10, 20, 20))
+    keep = mvo.copy()
+    state, r1 = track_masks(tracker_init(), mvo, None, CFG)
+    _, r2 = track_masks(state, mvo, None, CFG)
+    assert np.array_equal(mvo, keep)
+    assert r1.label_image is not None and r2.label_image is not None
+    r2.label_image[:] = 0
+    assert state.label_image is not None and state.label_image.any()
+
+
+# --------------------------------------------------------------------------- property
+
+
+rect = st.tuples(
+    st.integers(0, W - 12), st.integers(0, H - 12), st.integers(3, 40), st.integers(3, 40)
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(rect, max_size=4), min_size=1, max_size=12))
+def test_labels_never_reused_and_result_consistent(seq) -> None:
+    state = tracker_init()
+    ended: set[int] = set()
+    seen: set[int] = set()
+    prev: set[int] = set()
+    for rects in seq:
+        mvo = blobs(*[(x, y, min(x + w, W - 1), min(y + h, H - 1)) for x, y, w, h in rects])
+        state, r = track_masks(state, mvo, None, CFG)
+        cur = set(r.labels.tolist())
+        assert r.label_image is not None
+        assert not (cur & ended), "a retired label came back"
+        assert np.array_equal(r.label_image > 0, mvo > 0)
+        assert cur == set(np.unique(r.label_image[r.label_image > 0]).tolist())
+        new = cur - prev
+        assert all(lab > max(seen, default=0) for lab in new)  # fresh, increasing labels
+        born = set(r.births) | {c for _, kids in r.splits for c in kids}
+        assert born == new
+        assert set(r.retirements) == prev - cur
+        assert r.labels.tolist() == sorted(cur)
+        ended |= prev - cur
+        seen |= cur
+        prev = cur
+    assert state.next_label == max(seen, default=0) + 1
+
+
+# --------------------------------------------------------------------------- boxes
+
+
+def test_boxes_follow_iou_rules() -> None:
+    state = tracker_init()
+    labels = []
+    for t in range(6):
+        boxes = np.array([[10.0 + 2 * t, 10, 20, 40], [100.0 - 2 * t, 10, 20, 40]])
+        state, r = track_boxes(state, boxes, None, CFG)
+        labels.append(r.labels.tolist())
+        assert r.label_image is None and r.overlap.shape == ((0, 2) if t == 0 else (2, 2))
+    assert labels == [[1, 2]] * 6
+    state, r = track_boxes(state, np.array([[150.0, 10, 20, 40]]), None, CFG)
+    assert r.labels.tolist() == [3] and r.births == (3,) and r.retirements == (1, 2)
+
+
+def test_boxes_merge_keeps_both_labels() -> None:
+    state = tracker_init()
+    for t in range(3):
+        boxes = np.array([[40.0 + 4 * t, 10, 20, 40], [80.0 - 4 * t, 10, 20, 40]])
+        state, _ = track_boxes(state, boxes, None, CFG)
+    # the detector returns one box around both
+    state, r = track_boxes(state, np.array([[50.0, 10, 40, 40]]), None, CFG)
+    assert r.labels.tolist() == [1, 2] and r.merges == ((0, (1, 2)),)
+    assert sorted(r.blob_of_target.tolist()) == [-1, 0]  # one got the box, one coasts
+    coasting = r.boxes_xywh[r.blob_of_target == -1][0]
+    assert coasting[2:].tolist() == [20.0, 40.0]
+
+
+def test_boxes_external_ids_and_reappearance() -> None:
+    state = tracker_init()
+    box = np.array([[10.0, 10, 20, 40], [60.0, 10, 20, 40]])
+    feet = np.array([[20.0, 49.0], [np.nan, np.nan]])
+    state, r0 = track_boxes(state, box, np.array([7, 9]), CFG, feet_xy=feet)
+    state, r1 = track_boxes(state, box[::-1], np.array([9, 7]), CFG, feet_xy=feet[::-1])
+    assert r0.labels.tolist() == [1, 2] and r1.labels.tolist() == [1, 2]
+    i = r1.index_of(1)
+    assert i is not None and r1.feet_xy[i].tolist() == [20.0, 49.0]
+    state, r2 = track_boxes(state, box[:1], np.array([7]), CFG)
+    assert r2.retirements == (2,)
+    state, r3 = track_boxes(state, box, np.array([7, 9]), CFG)
+    assert r3.labels.tolist() == [1, 3] and r3.births == (3,)  # id 9 came back: new label
+    with pytest.raises(ValueError, match="duplicate"):
+        track_boxes(state, box, np.array([7, 7]), CFG)
