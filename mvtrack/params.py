@@ -113,13 +113,11 @@ class TrackerConfig(_Checked):
         3, "frames of history used to predict each merged target's motion", 1, 50
     )
     # Merge division: each merged target's last unmerged mask, moved by its recent velocity,
-    # claims the blob pixels only it covers; contested and uncovered pixels go by colour.
-    merge_slack_px: float = param(
-        2.0,
-        "uncovered pixels of a merged blob: targets whose predicted mask is within this many "
-        "px of the nearest one compete on colour",
-        0.0,
-        100.0,
+    # predicts where it is; a pixel d px outside a prediction loses d / merge_distance_px in
+    # log-likelihood for that target, and colour adds the log-likelihood of the pixel's colour.
+    # 2 px: a 3 px prediction error costs about as much as a colour 4.5x less likely.
+    merge_distance_px: float = param(
+        2.0, "merge division: px outside a target's predicted mask that cost one nat", 0.1, 100.0
     )
     colour_bins: int = param(8, "appearance histogram bins per colour channel", 2, 32)
     colour_rate: float = param(
