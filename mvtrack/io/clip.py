@@ -556,6 +556,8 @@ class Clip:
             for k in rng:
                 images = {}
                 for name, reader in readers.items():
+                    if reader not in self._open:  # the clip was closed
+                        return
                     cam = self.spec.camera(name)
                     image = reader.read(k + cam.offset)
                     if image is None:
