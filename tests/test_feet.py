@@ -1,0 +1,242 @@
+"""Feet and height (SPEC §3): hand-built cases, degenerate masks, tilted silhouettes, property."""
+
+from __future__ import annotations
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy import ndimage
+
+from mvtrack.params import FeetConfig, TrackerConfig
+from mvtrack.stages.blobtrack import track_boxes, track_masks, tracker_init
+from mvtrack.stages.feet import feet_bbox, feet_from_box, feet_pca, target_feet
+
+CFG = FeetConfig()
+
+
+def rect_mask(x0: int, y0: int, x1: int, y1: int, shape=(80, 60)) -> np.ndarray:
+    m = np.zeros(shape, bool)
+    m[y0 : y1 + 1, x0 : x1 + 1] = True
+    return m
+
+
+# --------------------------------------------------------------------------- hand-built
+
+
+def test_upright_rectangle_both_methods_agree() -> None:
+    m = rect_mask(20, 10, 29, 49)  # columns 20..29, rows 10..49
+    for f in (feet_pca(m), feet_bbox(m)):
+        np.testing.assert_allclose(f.point, [24.5, 49.5], atol=1e-9)
+        assert f.height_px == pytest.approx(40.0)
+        np.testing.assert_allclose(f.up, [0.0, -1.0], atol=1e-9)
+    f = feet_pca(m)
+    np.testing.assert_allclose(f.box_corners_xy, [[19.5, 9.5], [29.5, 9.5], [29.5, 49.5],
+                                                  [19.5, 49.5]], atol=1e-9)
+    np.testing.assert_allclose(f.outline_xy, [[20, 49], [29, 49]], atol=1e-9)
+
+
+def test_crop_offset_gives_image_coordinates() -> None:
+    m = rect_mask(20, 10, 29, 49)
+    crop = m[5:60, 15:40]
+    np.testing.assert_allclose(feet_pca(crop, (15.0, 5.0)).point, feet_pca(m).point)
+    np.testing.assert_allclose(feet_bbox(crop, (15.0, 5.0)).point, feet_bbox(m).point)
+
+
+def test_thesis_outline_points_on_two_legs() -> None:
+    # an upright "person": torso over two legs apart; the feet are between the two soles
+    m = rect_mask(20, 10, 40, 40)
+    m[41:61, 20:25] = True  # left leg, sole row 60
+    m[41:61, 36:41] = True  # right leg
+    f = feet_pca(m)
+    np.testing.assert_allclose(f.outline_xy, [[20, 60], [40, 60]], atol=1e-9)
+    np.testing.assert_allclose(f.point, [30.0, 60.5], atol=1e-9)
+    assert f.height_px == pytest.approx(51.0)
+
+
+@pytest.mark.parametrize(
+    ("pixels", "point", "height"),
+    [
+        ([(5, 7)], (5.0, 7.5), 1.0),  # one pixel: image up
+        ([(5, 7), (6, 7), (7, 7), (8, 7)], (6.5, 7.5), 1.0),  # horizontal line: stays upright
+        ([(5, 3), (5, 4), (5, 5), (5, 6)], (5.0, 6.5), 4.0),  # vertical line
+        ([(3, 3), (4, 3), (3, 4), (4, 4)], (3.5, 4.5), 2.0),  # square: too round, image up
+    ],
+)
+def test_degenerate_masks(pixels, point, height) -> None:
+    m = np.zeros((12, 12), bool)
+    for x, y in pixels:
+        m[y, x] = True
+    f = feet_pca(m)
+    np.testing.assert_allclose(f.point, point, atol=1e-9)
+    assert f.height_px == pytest.approx(height)
+    np.testing.assert_allclose(f.up, [0.0, -1.0], atol=1e-9)
+
+
+def test_diagonal_line_is_finite_and_inside() -> None:
+    m = np.eye(10, dtype=bool)
+    f = feet_pca(m)
+    assert np.all(np.isfinite(f.point)) and f.height_px > 0
+    assert -0.5 <= f.point[0] <= 9.5 and -0.5 <= f.point[1] <= 9.5
+    assert f.up @ np.array([0.0, -1.0]) >= math.cos(math.radians(45)) - 1e-9
+
+
+def test_empty_mask_is_an_error() -> None:
+    with pytest.raises(ValueError, match="empty"):
+        feet_pca(np.zeros((5, 5), bool))
+    with pytest.raises(ValueError, match="empty"):
+        feet_bbox(np.zeros((5, 5), bool))
+
+
+def test_feet_from_box() -> None:
+    f = feet_from_box(np.array([9.5, 19.5, 11.0, 41.0]))
+    np.testing.assert_allclose(f.point, [15.0, 60.5])
+    assert f.height_px == 41.0
+    g = feet_from_box(np.array([9.5, 19.5, 11.0, 41.0]), np.array([14.0, 58.0]))
+    np.testing.assert_allclose(g.point, [14.0, 58.0])
+    h = feet_from_box(np.array([9.5, 19.5, 11.0, 41.0]), np.array([np.nan, np.nan]))
+    np.testing.assert_allclose(h.point, [15.0, 60.5])
+
+
+# --------------------------------------------------------------------------- tilted people
+
+
+def _to_image(uv: np.ndarray, foot_xy: np.ndarray, tilt_rad: float) -> np.ndarray:
+    """Upright body coordinates (u right, v down, origin at the ground point) to image."""
+    down = np.array([-math.sin(tilt_rad), math.cos(tilt_rad)])
+    right = np.array([down[1], -down[0]])
+    return foot_xy + uv[:, :1] * right + uv[:, 1:2] * down
+
+
+def person_mask(
+    height: float, tilt_rad: float, stance: float, rng: np.random.Generator,
+    shape: tuple[int, int] = (240, 320),
+) -> tuple[np.ndarray, np.ndarray]:
+    """A walking-person silhouette (head, body, arms, two legs with soles on v = 0; one piece),
+    rolled by ``tilt_rad``. Returns the mask and the true foot: the image of the ground point
+    under the centre of mass (u = 0, v = 0)."""
+    foot = np.array([shape[1] / 2, shape[0] * 0.8]) + rng.uniform(-5, 5, 2)
+    hgt = height
+    mask = np.zeros(shape, np.uint8)
+    shift = 4  # sub-pixel vertices for cv2 drawing
+
+    def poly(uv: list[tuple[float, float]]) -> None:
+        pts = np.round(_to_image(np.array(uv), foot, tilt_rad) * (1 << shift)).astype(np.int32)
+        cv2.fillPoly(mask, [pts], 1, lineType=cv2.LINE_8, shift=shift)
+
+    def capsule(a: tuple[float, float], b: tuple[float, float], r: float) -> None:
+        pa, pb = (_to_image(np.array([p]), foot, tilt_rad)[0] for p in (a, b))
+        thickness = max(1, round(2 * r))
+        cv2.line(mask, tuple(np.round(pa).astype(int)), tuple(np.round(pb).astype(int)), 1,
+                 thickness)
+
+    head_r = 0.065 * hgt
+    centre = _to_image(np.array([[0.0, -hgt + head_r]]), foot, tilt_rad)[0]
+    cv2.circle(mask, tuple(np.round(centre).astype(int)), round(head_r), 1, -1)
+    poly([(-0.11 * hgt, -0.88 * hgt), (0.11 * hgt, -0.88 * hgt), (0.09 * hgt, -0.47 * hgt),
+          (-0.09 * hgt, -0.47 * hgt)])  # torso
+    swing = rng.uniform(-0.08, 0.08) * hgt
+    for side in (-1, 1):
+        capsule((side * 0.1 * hgt, -0.82 * hgt), (side * 0.12 * hgt + swing * side, -0.5 * hgt),
+                0.025 * hgt)  # arms
+    leg_w = 0.05 * hgt
+    for side in (-1, 1):
+        toe = side * stance * hgt / 2
+        poly([(side * 0.02 * hgt, -0.5 * hgt), (side * 0.02 * hgt + side * leg_w * 1.4,
+              -0.5 * hgt), (toe + side * leg_w / 2, 0.0), (toe - side * leg_w / 2, 0.0)])
+    return mask.astype(bool), foot
+
+
+def tilted_errors(n: int, seed: int) -> tuple[np.ndarray, np.ndarray]:
+    rng = np.random.default_rng(seed)
+    err_pca, err_box = [], []
+    for _ in range(n):
+        tilt = math.radians(rng.uniform(15, 25)) * rng.choice([-1, 1])
+        mask, truth = person_mask(rng.uniform(50, 110), tilt, rng.uniform(0.0, 0.25), rng)
+        assert ndimage.label(mask)[1] == 1
+        err_pca.append(np.linalg.norm(feet_pca(mask).point - truth))
+        err_box.append(np.linalg.norm(feet_bbox(mask).point - truth))
+    return np.array(err_pca), np.array(err_box)
+
+
+def test_rotated_rectangle_pca_recovers_the_bottom_centre() -> None:
+    for deg in (-25, -15, 10, 20):
+        tilt = math.radians(deg)
+        m = np.zeros((160, 160), np.uint8)
+        foot = np.array([80.0, 130.0])
+        uv = np.array([[-8, -80], [8, -80], [8, 0], [-8, 0]], np.float64)
+        cv2.fillPoly(m, [np.round(_to_image(uv, foot, tilt) * 16).astype(np.int32)], 1,
+                     shift=4)
+        pca, box = feet_pca(m.astype(bool)), feet_bbox(m.astype(bool))
+        assert np.linalg.norm(pca.point - foot) < 1.5, deg
+        assert np.linalg.norm(box.point - foot) > 5, deg
+        assert pca.height_px == pytest.approx(80.0, abs=2.0)
+        assert math.degrees(math.atan2(pca.up[0], -pca.up[1])) == pytest.approx(deg, abs=1.0)
+
+
+def test_tilted_people_pca_beats_bbox() -> None:
+    err_pca, err_box = tilted_errors(60, seed=3)
+    assert np.median(err_pca) <= 3.0, np.median(err_pca)
+    assert np.median(err_pca) < np.median(err_box) / 3, (np.median(err_pca), np.median(err_box))
+
+
+def test_upright_people_pca_no_worse_than_bbox() -> None:
+    rng = np.random.default_rng(5)
+    err_pca, err_box = [], []
+    for _ in range(30):
+        mask, truth = person_mask(rng.uniform(50, 110), 0.0, rng.uniform(0.0, 0.25), rng)
+        err_pca.append(np.linalg.norm(feet_pca(mask).point - truth))
+        err_box.append(np.linalg.norm(feet_bbox(mask).point - truth))
+    assert np.median(err_pca) <= 2.0
+    assert np.median(err_box) <= 2.0
+
+
+# --------------------------------------------------------------------------- property
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 29), st.integers(0, 29)), min_size=1, max_size=60),
+       st.booleans())
+def test_feet_inside_the_mask_box(pixels, dilate) -> None:
+    m = np.zeros((30, 30), bool)
+    for x, y in pixels:
+        m[y, x] = True
+    if dilate:
+        m = ndimage.binary_dilation(m)
+    ys, xs = np.nonzero(m)
+    lo = np.array([xs.min(), ys.min()]) - 0.5
+    hi = np.array([xs.max(), ys.max()]) + 0.5
+    for f in (feet_pca(m), feet_bbox(m)):
+        assert np.all(f.point >= lo - 1e-9) and np.all(f.point <= hi + 1e-9)
+        assert 0 < f.height_px <= math.hypot(*(hi - lo)) + 1e-9
+        assert abs(np.linalg.norm(f.up) - 1) < 1e-9
+        assert f.up @ np.array([0.0, -1.0]) >= math.cos(math.radians(45)) - 1e-9
+
+
+# --------------------------------------------------------------------------- per target
+
+
+def test_target_feet_on_track_results() -> None:
+    mask_a, foot_a = person_mask(80, math.radians(20), 0.2, np.random.default_rng(1))
+    mvo = ndimage.label(mask_a)[0].astype(np.int32)
+    _, res = track_masks(tracker_init(), mvo, None, TrackerConfig())
+    pts, heights = target_feet(res, CFG)
+    assert pts.shape == (1, 2) and heights.shape == (1,)
+    assert np.linalg.norm(pts[0] - foot_a) <= 3.0
+    assert heights[0] == pytest.approx(80, abs=4)
+    pts_box, _ = target_feet(res, FeetConfig(method="bbox"))
+    assert np.linalg.norm(pts_box[0] - foot_a) > 8.0
+
+    boxes = np.array([[9.5, 19.5, 11.0, 41.0], [50.0, 10.0, 10.0, 30.0]])
+    feet = np.array([[14.0, 58.0], [np.nan, np.nan]])
+    _, rb = track_boxes(tracker_init(), boxes, None, TrackerConfig(), feet_xy=feet)
+    pts, heights = target_feet(rb, CFG)
+    np.testing.assert_allclose(pts, [[14.0, 58.0], [55.0, 40.0]])
+    np.testing.assert_allclose(heights, [41.0, 30.0])
+
+    _, empty = track_masks(tracker_init(), np.zeros((20, 20), np.int32), None, TrackerConfig())
+    pts, heights = target_feet(empty, CFG)
+    assert pts.shape == (0, 2) and heights.shape == (0,)
