@@ -6,18 +6,22 @@ Each command is thin: parse options, call the library, print. Errors that are th
 
 from __future__ import annotations
 
+import json
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated, Any
 
 import typer
 from rich.console import Console
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeRemainingColumn
 from rich.table import Table
 
-from mvtrack.params import ParamsError, dump_params, load_params
+from mvtrack.params import Params, ParamsError, dump_params, load_params
+
+if TYPE_CHECKING:
+    from mvtrack.io import Clip
 
 app = typer.Typer(
     name="mvtrack",
@@ -175,6 +179,99 @@ def info(clip: Annotated[Path, typer.Argument(help="Clip directory.")]) -> None:
     out.print(f"thresholds: {spec.params_file or 'defaults'}")
     for warning in spec.warnings:
         err.print(f"[yellow]warning:[/] {warning}", highlight=False)
+
+
+FramesOpt = Annotated[
+    str | None, typer.Option("--frames", help="Clip frame range START:STOP, e.g. 100:400.")
+]
+CamerasOpt = Annotated[
+    str | None, typer.Option("--cameras", help="Comma-separated cameras to use (default: all).")
+]
+
+
+def open_run(clip: Path, params: Path | None, set_: list[str] | None, frames: str | None,
+             cameras: str | None) -> tuple[Clip, Params, range]:
+    """Open a clip and resolve thresholds (--params, else the clip's mvtrack.toml) and frames."""
+    from mvtrack.io import open_clip, parse_frame_range
+
+    names = [c.strip() for c in cameras.split(",")] if cameras else None
+    opened = open_clip(clip, cameras=names)
+    try:
+        path = params if params is not None else opened.spec.params_file
+        resolved = load_params(path, set_ or [])
+        rng = range(opened.spec.frame_count)
+        if frames is not None:
+            rng = parse_frame_range(frames, opened.spec.frame_count)
+    except Exception:
+        opened.close()
+        raise
+    for warning in opened.spec.warnings:
+        err.print(f"[yellow]warning:[/] {warning}", highlight=False)
+    return opened, resolved, rng
+
+
+@app.command()
+def track(
+    clip: Annotated[Path, typer.Argument(help="Clip directory.")],
+    out_dir: Annotated[Path, typer.Option("--out", help="Results directory to write.")],
+    frames: FramesOpt = None,
+    params: ParamsOpt = None,
+    set_: SetOpt = None,
+    cameras: CamerasOpt = None,
+    mask_every: Annotated[
+        int, typer.Option(help="Write segmentation masks every N frames (0: never).")
+    ] = 25,
+) -> None:
+    """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
+    from mvtrack.io.results import ResultsWriter
+    from mvtrack.pipeline import run
+    from mvtrack.report import run_info
+
+    with user_errors():
+        opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
+    with opened:
+        writer = ResultsWriter(out_dir, mask_every=mask_every)
+        with progress_bar("tracking") as update:
+            summary = run(opened, resolved, rng, [writer], progress=update)
+        writer.close(run_info(opened.spec, resolved, rng, summary))
+    if summary.interrupted:
+        err.print(f"interrupted after {summary.frames} frames; results so far in {out_dir}")
+        raise typer.Exit(code=130)
+    out.print(f"tracked {summary.frames} frames of {len(opened.spec.cameras)} cameras "
+              f"-> {out_dir}")
+
+
+def _fmt(value: Any) -> str:
+    return f"{value:.3f}" if isinstance(value, float) else str(value)
+
+
+@app.command("eval")
+def eval_(
+    clip: Annotated[Path, typer.Argument(help="Clip directory with truth/.")],
+    results: Annotated[Path, typer.Argument(help="Results directory from `mvtrack track`.")],
+) -> None:
+    """Score results against the clip's truth; write metrics.json beside the results."""
+    from mvtrack.evaluate.report import evaluate
+
+    with user_errors():
+        try:
+            metrics = evaluate(clip, results)
+        except (FileNotFoundError, ValueError) as exc:
+            raise fail(str(exc)) from None
+    (results / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    table = Table(title=f"{results} against {clip}/truth")
+    table.add_column("figure")
+    cams = metrics["cameras"]
+    for name in cams:
+        table.add_column(name)
+    for key in next(iter(cams.values())):
+        if key != "masks":
+            table.add_row(key, *(_fmt(cams[c][key]) for c in cams))
+    for key in ("fg_precision", "fg_recall", "shadow_detection", "shadow_discrimination"):
+        if any("masks" in cams[c] for c in cams):
+            table.add_row(key, *(_fmt(cams[c].get("masks", {}).get(key, "-")) for c in cams))
+    out.print(table)
+    out.print(f"wrote {results / 'metrics.json'}")
 
 
 def main() -> None:

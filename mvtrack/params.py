@@ -88,8 +88,18 @@ class BackgroundConfig(_Checked):
     shadow_hue_tol_rad: float = param(
         0.5, "tau_H: largest circular hue difference of a shadow pixel (radians)", 0.0, math.pi
     )
-    shadow_min_value: float = param(
-        0.08, "pixels with B_V below this have no meaningful hue: shadow test uses V only", 0.0, 1.0
+    # Hue and saturation are noise on dark or nearly gray pixels (OpenCV's S = (max-min)/max
+    # jumps when max is small; hue is undefined at S = 0). Where either I or B is darker than
+    # colour_min_value, D_B and the shadow test use V only; the hue terms also need S of both
+    # at least hue_min_sat.
+    colour_min_value: float = param(
+        0.08, "V below which a pixel has no meaningful colour: D_B and shadows use V only", 0.0, 1.0
+    )
+    hue_min_sat: float = param(
+        0.15, "S (of both I and B) below which hue is ignored in D_B and the shadow test", 0.0, 1.0
+    )
+    flow_max_width_px: int = param(
+        400, "optical flow runs on the frame downscaled by an integer to at most this width", 16
     )
     gray_shadows: bool = param(True, "gray cameras: apply the V-ratio shadow test (else none)")
 
@@ -356,7 +366,8 @@ def dump_params(params: Params) -> str:
     lines = ["# mvtrack thresholds (mvtrack params show). Units are in the key names."]
     for stage in dataclasses.fields(params):
         config = getattr(params, stage.name)
-        lines += ["", f"# {type(config).__doc__.strip().splitlines()[0]}", f"[{stage.name}]"]
+        doc = (type(config).__doc__ or stage.name).strip().splitlines()[0]
+        lines += ["", f"# {doc}", f"[{stage.name}]"]
         for f in dataclasses.fields(config):
             lo, hi = f.metadata.get("lo"), f.metadata.get("hi")
             lines.append(f"# {f.metadata.get('doc', '')}{_range_text(lo, hi)}")

@@ -1,0 +1,120 @@
+"""`mvtrack eval CLIP RESULTS`: score a results directory against the clip's truth.
+
+Reads only files: the clip's `truth/` and the results' `tracks.csv` (and `masks/` when the
+run wrote them). Returns one JSON-ready dict, written as `metrics.json` beside the results.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from mvtrack.evaluate.metrics import FrameRows, MaskScores, detection_scores, idf1, mask_scores
+from mvtrack.io import CameraTruth, ClipError, Truth, read_truth
+from mvtrack.io.results import TrackRows, read_tracks
+
+__all__ = ["EvalConfig", "evaluate", "processed_frames", "results_masks"]
+
+
+@dataclass(frozen=True)
+class EvalConfig:
+    """How predictions are matched to truth.
+
+    gate_heights: a prediction matches a truth person within this many of its heights
+    min_visible:  truth rows less visible than this are "don't care"
+    """
+
+    gate_heights: float = 0.5
+    min_visible: float = 0.5
+
+
+def _truth_rows(t: CameraTruth, frames: range) -> FrameRows:
+    keep = (t.frame >= frames.start) & (t.frame < frames.stop)
+    return FrameRows.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
+                        t.visible[keep])
+
+
+def processed_frames(results: Path) -> range:
+    """The clip frames a run processed, from its `run.json` (all frames if it is absent)."""
+    path = Path(results) / "run.json"
+    if not path.is_file():
+        return range(0, 2**62)
+    frames = json.loads(path.read_text())["frames"]
+    return range(frames["start"], frames["start"] + frames["processed"])
+
+
+def _pred_rows(rows: TrackRows, ids: np.ndarray, feet: np.ndarray | None = None) -> FrameRows:
+    return FrameRows.of(rows.frame, ids, rows.feet if feet is None else feet)
+
+
+def _bbox_feet(rows: TrackRows) -> np.ndarray:
+    """The classic baseline: bottom centre of each target's box."""
+    b = rows.boxes_xywh
+    return np.stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]], axis=1)
+
+
+def results_masks(results: Path, camera: str) -> dict[int, Path]:
+    """Frame -> mask file written by `mvtrack track` for one camera."""
+    folder = Path(results) / "masks" / camera
+    if not folder.is_dir():
+        return {}
+    return {int(p.stem): p for p in folder.glob("*.png") if p.stem.isdigit()}
+
+
+def _mask_summary(truth: Truth, results: Path, camera: str) -> Mapping[str, float] | None:
+    import cv2
+
+    ours = results_masks(results, camera)
+    frames = sorted(set(truth.mask_frames(camera)) & set(ours))
+    if not frames:
+        return None
+    total = MaskScores()
+    for f in frames:
+        pred = cv2.imread(str(ours[f]), cv2.IMREAD_UNCHANGED)
+        if pred is None:
+            raise ClipError(f"{ours[f]}: cannot be read as an image")
+        total = total + mask_scores(pred, truth.load_mask(camera, f))
+    return dict(total.summary()) | {"frames": len(frames)}
+
+
+def _camera_metrics(truth: Truth, rows: TrackRows, results: Path, camera: str,
+                    cfg: EvalConfig) -> dict[str, Any]:
+    t = _truth_rows(truth.cameras[camera], processed_frames(results))
+    mine = rows.of_camera(camera)
+    scores: dict[str, Any] = detection_scores(_pred_rows(mine, mine.target), t,
+                                              cfg.gate_heights, cfg.min_visible)
+    baseline = detection_scores(_pred_rows(mine, mine.target, _bbox_feet(mine)), t,
+                                cfg.gate_heights, cfg.min_visible)
+    scores["foot_error_px_median_bbox_baseline"] = baseline["foot_error_px_median"]
+    scores["foot_error_px_p90_bbox_baseline"] = baseline["foot_error_px_p90"]
+    scores["idf1_single_camera"] = idf1(_pred_rows(mine, mine.target), t, cfg.gate_heights,
+                                        cfg.min_visible)["idf1"]
+    masks = _mask_summary(truth, results, camera)
+    if masks is not None:
+        scores["masks"] = masks
+    return scores
+
+
+def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[str, Any]:
+    """Every figure we can compute for ``results`` against the truth of ``clip``."""
+    truth = read_truth(Path(clip))
+    if truth is None:
+        raise ClipError(f"{clip}: no truth/ directory: nothing to evaluate against")
+    rows = read_tracks(Path(results) / "tracks.csv")
+    cameras = sorted(set(rows.camera.tolist()) & set(truth.cameras))
+    if not cameras:
+        raise ClipError(f"{results}/tracks.csv: no camera in common with {truth.root} "
+                        f"(results: {sorted(set(rows.camera.tolist()))}, "
+                        f"truth: {sorted(truth.cameras)})")
+    per_camera = {c: _camera_metrics(truth, rows, Path(results), c, cfg) for c in cameras}
+    return {
+        "clip": str(clip),
+        "results": str(results),
+        "matching": {"gate_heights": cfg.gate_heights, "min_visible": cfg.min_visible},
+        "cameras": per_camera,
+    }

@@ -1,0 +1,119 @@
+"""Writing and reading a results directory (FORMATS.md, `mvtrack track CLIP --out DIR`).
+
+`tracks.csv` is written row by row as frames arrive, so an interrupted run keeps what it did.
+`run.json` is written at the end (and says whether the run was interrupted).
+
+Optional, beyond FORMATS.md: `masks/<camera>/<frame:06d>.png` every ``mask_every`` frames for
+video cameras, uint8 with 0 background, 1 foreground (tracked target pixels), 2 detected cast
+shadow: the same coding as `truth/masks`, so evaluation can score the segmentation.
+"""
+
+from __future__ import annotations
+
+import csv
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+
+__all__ = ["TRACKS_HEADER", "ResultsWriter", "TrackRows", "read_tracks"]
+
+TRACKS_HEADER = (
+    "frame", "camera", "target", "meta", "foot_x", "foot_y",
+    "box_x", "box_y", "box_w", "box_h", "height",
+)
+
+
+class ResultsWriter:
+    """A sink that streams `tracks.csv` (and optional masks) into ``out_dir``.
+
+    A small class because it owns open files; ``close(run_info)`` writes `run.json`.
+    """
+
+    def __init__(self, out_dir: Path, mask_every: int = 0) -> None:
+        self.out_dir = Path(out_dir)
+        self.out_dir.mkdir(parents=True, exist_ok=True)
+        self.mask_every = mask_every
+        self._file = (self.out_dir / "tracks.csv").open("w", newline="", encoding="utf-8")
+        self._csv = csv.writer(self._file, lineterminator="\n")
+        self._csv.writerow(TRACKS_HEADER)
+
+    def on_frame(self, result: Any) -> None:
+        """Write one :class:`~mvtrack.pipeline.FrameResult`."""
+        for name, cam in result.cameras.items():
+            t = cam.targets
+            metas = result.metas[name]
+            for i, label in enumerate(t.labels.tolist()):
+                x, y, w, h = t.boxes_xywh[i]
+                fx, fy = t.feet[i]
+                self._csv.writerow([
+                    result.index, name, label, int(metas[i]), f"{fx:.2f}", f"{fy:.2f}",
+                    f"{x:.1f}", f"{y:.1f}", f"{w:.1f}", f"{h:.1f}", f"{t.heights_px[i]:.2f}",
+                ])
+            if self.mask_every and result.index % self.mask_every == 0 and cam.background:
+                self._write_mask(name, result.index, cam)
+        self._file.flush()
+
+    def _write_mask(self, name: str, index: int, cam: Any) -> None:
+        coded = np.zeros(cam.background.mvo_labels.shape, np.uint8)
+        coded[cam.background.fg_shadow | cam.background.ghost_shadow] = 2
+        coded[cam.tracks.label_image > 0] = 1
+        folder = self.out_dir / "masks" / name
+        folder.mkdir(parents=True, exist_ok=True)
+        cv2.imwrite(str(folder / f"{index:06d}.png"), coded)
+
+    def close(self, run_info: dict[str, Any], pairs: list[dict[str, Any]] | None = None) -> None:
+        """Close `tracks.csv` and write `run.json` (and `pairs.json` when given)."""
+        self._file.close()
+        (self.out_dir / "run.json").write_text(json.dumps(run_info, indent=2) + "\n")
+        if pairs is not None:
+            (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
+
+
+@dataclass(frozen=True)
+class TrackRows:
+    """`tracks.csv` as parallel arrays (N rows)."""
+
+    frame: np.ndarray  # (N,) int64
+    camera: np.ndarray  # (N,) str
+    target: np.ndarray  # (N,) int64
+    meta: np.ndarray  # (N,) int64
+    feet: np.ndarray  # (N, 2) float64
+    boxes_xywh: np.ndarray  # (N, 4) float64
+    height: np.ndarray  # (N,) float64
+
+    def of_camera(self, name: str) -> TrackRows:
+        keep = self.camera == name
+        return TrackRows(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
+
+
+def read_tracks(path: Path) -> TrackRows:
+    """Read a `tracks.csv`; errors name the file and line."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no tracks.csv here (run `mvtrack track` first)")
+    with path.open(newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        header = tuple(next(reader, ()))
+        if header != TRACKS_HEADER:
+            raise ValueError(f"{path}:1: header {','.join(header)!r}, expected "
+                             f"{','.join(TRACKS_HEADER)!r}")
+        rows = list(reader)
+    try:
+        cols = list(zip(*rows, strict=True)) if rows else [()] * len(TRACKS_HEADER)
+        num = np.array([list(map(float, c)) for i, c in enumerate(cols) if i != 1]).T
+    except ValueError as exc:
+        raise ValueError(f"{path}: a row is malformed ({exc})") from None
+    num = num.reshape(len(rows), len(TRACKS_HEADER) - 1)
+    return TrackRows(
+        frame=num[:, 0].astype(np.int64),
+        camera=np.array(cols[1], dtype=str),
+        target=num[:, 1].astype(np.int64),
+        meta=num[:, 2].astype(np.int64),
+        feet=num[:, 3:5],
+        boxes_xywh=num[:, 5:9],
+        height=num[:, 9],
+    )

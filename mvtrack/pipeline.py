@@ -1,0 +1,235 @@
+"""The per-frame pipeline and the driver loop that owns time.
+
+    with open_clip(path) as clip:
+        summary = run(clip, params, range(0, clip.spec.frame_count), sinks=[writer])
+
+:func:`run` trains each video camera's background on the first frames of the range, then reads
+synchronized frame sets one at a time, calls :meth:`Pipeline.step` and hands each
+:class:`FrameResult` to the sinks (a results writer, the Rerun logger, a benchmark counter).
+Nothing here keeps per-frame records: memory stays flat however long the clip.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+
+from mvtrack.io import CameraSpec, Clip, Detections
+from mvtrack.params import Params
+from mvtrack.stages.background import (
+    BackgroundResult,
+    BackgroundState,
+    background_step,
+    train_background,
+)
+from mvtrack.stages.blobtrack import (
+    TrackerState,
+    TrackResult,
+    track_boxes,
+    track_masks,
+    tracker_init,
+)
+from mvtrack.stages.feet import Feet, target_feet_records
+from mvtrack.stages.targets import CameraTargets
+
+__all__ = ["CameraResult", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
+
+STAGES = ("read", "background", "tracker", "feet")
+"""Stage names in timing tables, in pipeline order."""
+
+
+@dataclass(frozen=True, eq=False)
+class CameraResult:
+    """One camera, one frame: every intermediate of the single-camera front end.
+
+    image:      the frame as read ((H,W,3) BGR or (H,W) gray uint8); None for detections
+    background: background subtraction's record; None for detections cameras
+    tracks:     the single-camera tracker's record
+    feet:       per target (``tracks.labels`` order), the feet record with its intermediates
+    targets:    labels, feet, heights, boxes: what the multi-camera stages consume
+    """
+
+    camera: CameraSpec
+    image: np.ndarray | None
+    background: BackgroundResult | None
+    tracks: TrackResult
+    feet: tuple[Feet, ...]
+    targets: CameraTargets
+
+
+@dataclass(frozen=True, eq=False)
+class FrameResult:
+    """Everything computed at one clip frame.
+
+    metas: per camera, (N,) int64 consistent label of each target (``targets.labels`` order)
+    stage_ms: milliseconds spent per stage (:data:`STAGES`) in this frame, all cameras
+    """
+
+    index: int
+    cameras: Mapping[str, CameraResult]
+    metas: Mapping[str, np.ndarray]
+    stage_ms: Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class _CameraState:
+    background: BackgroundState | None
+    tracker: TrackerState
+
+
+@dataclass(frozen=True)
+class _MetaState:
+    """Consistent labels. Until the multi-camera stages exist, each target is its own meta."""
+
+    of_target: Mapping[tuple[str, int], int] = field(default_factory=dict)
+    next_meta: int = 1
+
+
+def _assign_metas(
+    state: _MetaState, cameras: Mapping[str, CameraResult]
+) -> tuple[_MetaState, dict[str, np.ndarray]]:
+    of_target, next_meta = {}, state.next_meta
+    metas: dict[str, np.ndarray] = {}
+    for name, cam in cameras.items():
+        ids = []
+        for label in cam.targets.labels.tolist():
+            key = (name, label)
+            if key not in state.of_target:
+                of_target[key], next_meta = next_meta, next_meta + 1
+            else:
+                of_target[key] = state.of_target[key]
+            ids.append(of_target[key])
+        metas[name] = np.asarray(ids, np.int64)
+    return _MetaState(of_target, next_meta), metas
+
+
+class _Timer:
+    def __init__(self) -> None:
+        self.ms: dict[str, float] = dict.fromkeys(STAGES, 0.0)
+
+    @contextmanager
+    def __call__(self, stage: str) -> Iterator[None]:
+        start = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.ms[stage] += 1000.0 * (time.perf_counter() - start)
+
+
+class Pipeline:
+    """The per-frame computation over all cameras. Holds only the current states.
+
+    A small class because the driver, the viewer and the benchmark all step it; every stage
+    inside is a pure ``step(state, inputs, cfg) -> (state, result)``.
+    """
+
+    def __init__(self, cameras: Sequence[CameraSpec], params: Params,
+                 backgrounds: Mapping[str, BackgroundState]) -> None:
+        self.cameras = tuple(cameras)
+        self.params = params
+        self._states = {
+            c.name: _CameraState(backgrounds.get(c.name), tracker_init()) for c in self.cameras
+        }
+        self._metas = _MetaState()
+
+    def step(self, index: int, images: Mapping[str, np.ndarray],
+             detections: Mapping[str, Detections], read_ms: float = 0.0) -> FrameResult:
+        timer = _Timer()
+        timer.ms["read"] = read_ms
+        results = {}
+        for cam in self.cameras:
+            results[cam.name] = self._camera_step(cam, images.get(cam.name),
+                                                  detections.get(cam.name), timer)
+        self._metas, metas = _assign_metas(self._metas, results)
+        return FrameResult(index=index, cameras=results, metas=metas, stage_ms=timer.ms)
+
+    def _camera_step(self, cam: CameraSpec, image: np.ndarray | None,
+                     dets: Detections | None, timer: _Timer) -> CameraResult:
+        state, p = self._states[cam.name], self.params
+        bg_state, bg = state.background, None
+        with timer("background"):
+            if image is not None and bg_state is not None:
+                bg_state, bg = background_step(bg_state, image, p.background)
+        with timer("tracker"):
+            if bg is not None:
+                tracker, tracks = track_masks(state.tracker, bg.mvo_labels, image, p.tracker)
+            else:
+                d = dets if dets is not None else Detections.empty()
+                tracker, tracks = track_boxes(state.tracker, d.boxes_xywh, d.tracks, p.tracker,
+                                              feet_xy=d.feet)
+        with timer("feet"):
+            feet = target_feet_records(tracks, p.feet)
+        self._states[cam.name] = _CameraState(bg_state, tracker)
+        targets = CameraTargets(
+            labels=tracks.labels,
+            feet=np.array([f.point for f in feet]).reshape(-1, 2),
+            heights_px=np.array([f.height_px for f in feet], np.float64),
+            boxes_xywh=tracks.boxes_xywh,
+            size=cam.size,
+        )
+        return CameraResult(cam, image, bg, tracks, feet, targets)
+
+
+class Sink(Protocol):
+    """Receives every frame's result; a results writer, the Rerun logger, a counter."""
+
+    def on_frame(self, result: FrameResult) -> None: ...
+
+
+@dataclass
+class RunSummary:
+    """What a run did: frames processed and seconds per stage (all cameras)."""
+
+    frames: int = 0
+    train_seconds: float = 0.0
+    stage_seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STAGES, 0.0))
+    interrupted: bool = False
+
+
+def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, BackgroundState]:
+    """Each video camera's initial background: the median of the first ``train_frames`` frames."""
+    video = [c for c in clip.spec.cameras if c.kind != "detections"]
+    if not video:
+        return {}
+    n = min(params.background.train_frames, len(frames))
+    stacks: dict[str, list[np.ndarray]] = {c.name: [] for c in video}
+    for fs in clip.frames(range(frames.start, frames.start + n)):
+        for c in video:
+            stacks[c.name].append(fs.images[c.name])
+    return {
+        c.name: train_background(stacks[c.name], c.modality, params.background) for c in video
+    }
+
+
+def run(clip: Clip, params: Params, frames: range, sinks: Sequence[Sink],
+        progress: Callable[[int, int], None] | None = None) -> RunSummary:
+    """Run the pipeline over ``frames`` of ``clip``, handing each result to every sink.
+
+    Ctrl-C stops the loop cleanly: the summary says ``interrupted`` and the sinks keep what
+    they received (the caller closes them).
+    """
+    summary = RunSummary()
+    start = time.perf_counter()
+    pipeline = Pipeline(clip.spec.cameras, params, train_backgrounds(clip, frames, params))
+    summary.train_seconds = time.perf_counter() - start
+    try:
+        read_start = time.perf_counter()
+        for fs in clip.frames(frames):
+            read_ms = 1000.0 * (time.perf_counter() - read_start)
+            result = pipeline.step(fs.index, fs.images, fs.detections, read_ms)
+            for sink in sinks:
+                sink.on_frame(result)
+            for stage, ms in result.stage_ms.items():
+                summary.stage_seconds[stage] += ms / 1000.0
+            summary.frames += 1
+            if progress is not None:
+                progress(summary.frames, len(frames))
+            read_start = time.perf_counter()
+    except KeyboardInterrupt:
+        summary.interrupted = True
+    return summary
