@@ -1,0 +1,445 @@
+"""Sakbot background subtraction (SPEC §1, thesis §3.2.1; Cucchiara et al.).
+
+    state = train_background(first_frames, "rgb", cfg)      # median of the first frames
+    for frame in frames:
+        state, result = background_step(state, frame, cfg)  # result.mvo_labels -> tracker
+
+Per frame, against the current background B:
+
+1. HSV planes of the frame (OpenCV ``HSV_FULL``: hue 0..255 for [0, 2π), S and V 0..255 for
+   [0, 1]); gray cameras have V (the gray level) only.
+2. Shadow map (thesis eq. 3.1): α ≤ I_V/B_V ≤ β, |I_S − B_S| ≤ τ_S, circular |ΔH| ≤ τ_H.
+3. D_B = max(circular |ΔH|/π, |ΔS|, |ΔV|); candidates D_B > T_L, opened, shadows removed;
+   8-connected components are the blobs.
+4. A blob is an MVO when area > T_area, max D_B > T_H and mean optical flow > T_AOF; the other
+   blobs are ghosts. Shadow pixels 8-connected to an MVO (through shadow) are foreground shadows.
+5. Selective update: the frame with MVO and foreground-shadow pixels replaced by B is pushed into
+   the FIFO; the new B is the median of n FIFO frames spaced m apart (the newest and every m-th
+   older one). Ghosts are not masked, so the median absorbs them.
+
+Choices beyond the thesis (each with its config field):
+
+- **Colour needs light.** S is noise on dark pixels and hue on nearly gray ones (PETS: gray
+  pavement). The S terms (of D_B and the shadow test) apply only where I and B both have
+  V > ``colour_min_value``, the hue terms only where both also have S > ``hue_min_sat``;
+  elsewhere V (and S) carry the test.
+- **Exact 8-bit arithmetic.** Every threshold is applied to the 8-bit planes in an exactly
+  equivalent integer form (e.g. α ≤ I_V/B_V ⟺ I_V ≥ ⌈α·B_V⌉), with the bounds precomputed once per
+  background. ``distance`` is the 8-bit D_B / 255 (hue: circular 8-bit difference × 2, so hue has
+  the 1.4° resolution of OpenCV's 8-bit hue).
+- **Flow only where it matters.** Mean flow per blob comes from DIS optical flow (OpenCV,
+  ultrafast preset) on frames downscaled so their width is at most ``flow_max_width_px`` (1.2 ms
+  at 384×288, against 140 ms for full-frame Farneback); it is skipped when there are no blobs.
+  The first step after training has no previous frame: its mean flows are NaN and the flow test
+  is skipped for that frame only.
+- **FIFO length.** The newest frame and every m-th older one are the n samples, so the FIFO
+  keeps (n − 1)·m + 1 frames (the thesis sizes it n·m; the extra frames are never selected).
+- **Median.** Exact lower median (:mod:`mvtrack.stages.median`): 2.5 ms for n = 8 at 768×576×3.
+
+Immutability: inputs are never modified; arrays kept in the state (FIFO frames, background) are
+read-only and shared with results only read-only; every other result array is new per call.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from functools import lru_cache
+
+import cv2
+import numpy as np
+
+from mvtrack.params import BackgroundConfig
+from mvtrack.stages.median import lower_median
+
+__all__ = [
+    "BackgroundResult",
+    "BackgroundState",
+    "BlobTable",
+    "background_step",
+    "train_background",
+]
+
+_MODALITIES = ("rgb", "gray")
+
+
+@dataclass(frozen=True, eq=False)
+class _Model:
+    """A background B and what every frame compares against it (computed once per B).
+
+    bgr: (H,W,3) or (H,W) uint8 B; h, s, v: (H,W) uint8 planes (h, s None for gray);
+    ratio_lo, ratio_hi: (H,W) uint8, the I_V range with α ≤ I_V/B_V ≤ β (lo > hi where B_V = 0);
+    colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat (both None for gray).
+    """
+
+    bgr: np.ndarray
+    h: np.ndarray | None
+    s: np.ndarray | None
+    v: np.ndarray
+    ratio_lo: np.ndarray
+    ratio_hi: np.ndarray
+    colour: np.ndarray | None
+    hue_ok: np.ndarray | None
+
+
+@dataclass(frozen=True, eq=False)
+class BackgroundState:
+    """Everything background subtraction carries from one frame to the next.
+
+    modality:    "rgb" or "gray"
+    fifo:        ((n-1)*m+1,) tuple of read-only frames, oldest first, with MVO and
+                 foreground-shadow pixels replaced by the background of their time;
+                 (H,W,3) uint8 BGR or (H,W) uint8 gray
+    model:       the background B for the next frame and its derived planes
+    prev_flow_gray: (h,w) uint8 previous frame's V plane at flow resolution; None before the
+                 first step
+    frame_index: number of frames processed by :func:`background_step` so far
+    """
+
+    modality: str
+    fifo: tuple[np.ndarray, ...]
+    model: _Model
+    prev_flow_gray: np.ndarray | None
+    frame_index: int
+
+    @property
+    def background(self) -> np.ndarray:
+        """(H,W,3) or (H,W) uint8, read-only: the background B the next frame is compared with."""
+        return self.model.bgr
+
+
+@dataclass(frozen=True, eq=False)
+class BlobTable:
+    """Every candidate blob of one frame, as parallel arrays (K blobs, in label order).
+
+    label:        (K,) int32, the blob's value in ``BackgroundResult.blob_labels`` (1..K)
+    area_px:      (K,) int64, pixel count
+    max_distance: (K,) float32, largest D_B in the blob, in [0, 1]
+    mean_flow_px: (K,) float64, mean optical-flow magnitude in px/frame (NaN: no previous frame)
+    area_ok, strong_ok, flow_ok: (K,) bool, the three MVO tests (flow_ok is True when NaN)
+    is_mvo:       (K,) bool, all three tests passed
+    mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
+    box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
+    """
+
+    label: np.ndarray
+    area_px: np.ndarray
+    max_distance: np.ndarray
+    mean_flow_px: np.ndarray
+    area_ok: np.ndarray
+    strong_ok: np.ndarray
+    flow_ok: np.ndarray
+    is_mvo: np.ndarray
+    mvo_label: np.ndarray
+    box_xywh: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.label)
+
+
+@dataclass(frozen=True, eq=False)
+class BackgroundResult:
+    """One camera, one frame of background subtraction; all masks (H,W).
+
+    frame_index:    0-based index of this frame among the steps since training
+    background_bgr: (H,W,3) uint8 BGR (gray: (H,W) uint8), read-only: the B used for this frame
+    distance:       float32 in [0, 1], D_B
+    shadow:         bool, the shadow map (all pixels passing the shadow test)
+    candidate:      bool, D_B > T_L after the opening, shadows removed
+    blob_labels:    int32, 0 none, 1..K the candidate blobs (rows of ``blobs``)
+    mvo_labels:     int32, 0 none, 1..M the MVO blobs, consecutive in blob-label order
+    ghost_mask:     bool, pixels of candidate blobs that are not MVOs
+    fg_shadow:      bool, shadow pixels connected (8-neighbourhood, through shadow) to an MVO
+    ghost_shadow:   bool, the other shadow pixels
+    blobs:          per-blob table
+    """
+
+    frame_index: int
+    background_bgr: np.ndarray
+    distance: np.ndarray
+    shadow: np.ndarray
+    candidate: np.ndarray
+    blob_labels: np.ndarray
+    mvo_labels: np.ndarray
+    ghost_mask: np.ndarray
+    fg_shadow: np.ndarray
+    ghost_shadow: np.ndarray
+    blobs: BlobTable
+
+    @property
+    def mvo_mask(self) -> np.ndarray:
+        """(H,W) bool, the MVO pixels."""
+        return self.mvo_labels > 0
+
+
+def _readonly(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+def _u8_floor(fraction: float, full: float = 255.0) -> int:
+    """The integer k with  (x > fraction*full  ⟺  x > k)  for integer x."""
+    return math.floor(fraction * full + 1e-9)
+
+
+def _as_frame(frame: np.ndarray, modality: str) -> np.ndarray:
+    """Check a frame and bring it to the modality's layout: BGR (H,W,3) or gray (H,W) uint8."""
+    if frame.dtype != np.uint8:
+        raise ValueError(f"background: frames must be uint8, got {frame.dtype}")
+    if frame.ndim == 3 and frame.shape[2] == 3:
+        return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if modality == "gray" else frame
+    if frame.ndim == 2 and modality == "gray":
+        return frame
+    raise ValueError(f"background: a {modality} frame must be (H,W,3) or gray (H,W), got "
+                     f"shape {frame.shape}")
+
+
+def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
+    """Derive the per-B planes used by every frame's comparison."""
+    bgr = _readonly(bgr)
+    if modality == "gray":
+        h = s = colour = hue_ok = None
+        v = bgr
+    else:
+        h, s, v = cv2.split(cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV_FULL))
+        colour = v > _u8_floor(cfg.colour_min_value)
+        hue_ok = s > _u8_floor(cfg.hue_min_sat)
+    lo_lut, hi_lut = _ratio_luts(cfg.shadow_alpha, cfg.shadow_beta)
+    return _Model(bgr=bgr, h=h, s=s, v=v, ratio_lo=cv2.LUT(v, lo_lut),
+                  ratio_hi=cv2.LUT(v, hi_lut), colour=colour, hue_ok=hue_ok)
+
+
+@lru_cache(maxsize=8)
+def _ratio_luts(alpha: float, beta: float) -> tuple[np.ndarray, np.ndarray]:
+    """Per B_V value (0..255), the smallest and largest integer I_V with α ≤ I_V/B_V ≤ β.
+
+    α ≤ I/B ⟺ I ≥ ⌈αB⌉ and I/B ≤ β ⟺ I ≤ ⌊βB⌋; B = 0 gets an empty range (lo 255 > hi 0).
+    """
+    b = np.arange(256, dtype=np.float64)
+    lo = np.ceil(b * alpha - 1e-9)
+    hi = np.floor(b * beta + 1e-9)
+    lo[0], hi[0] = 255.0, 0.0
+    return _readonly(lo.astype(np.uint8)), _readonly(hi.astype(np.uint8))
+
+
+def _fifo_len(cfg: BackgroundConfig) -> int:
+    return (cfg.fifo_n - 1) * cfg.fifo_spacing_frames + 1
+
+
+def _flow_gray(value: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
+    """The V plane (gray level, or HSV value) at optical-flow resolution (width at most
+    ``flow_max_width_px``). V rather than luma saves a colour conversion; flow only needs
+    texture that moves with the object."""
+    gray = value
+    factor = math.ceil(gray.shape[1] / cfg.flow_max_width_px)
+    if factor <= 1:
+        return gray
+    size = (gray.shape[1] // factor, gray.shape[0] // factor)
+    return cv2.resize(gray, size, interpolation=cv2.INTER_AREA)
+
+
+def train_background(
+    frames: Sequence[np.ndarray], modality: str, cfg: BackgroundConfig
+) -> BackgroundState:
+    """The initial state: B = per-pixel lower median of the first ``train_frames`` frames.
+
+    frames: BGR (H,W,3) uint8 or gray (H,W) uint8 (a gray camera may also be given BGR frames,
+    which are converted). modality: "rgb" or "gray". The FIFO is filled with B.
+    """
+    if modality not in _MODALITIES:
+        raise ValueError(f"train_background: modality {modality!r} must be 'rgb' or 'gray'")
+    if len(frames) == 0:
+        raise ValueError("train_background: no frames")
+    used = [_as_frame(f, modality) for f in frames[: cfg.train_frames]]
+    for i, f in enumerate(used):
+        if f.shape != used[0].shape:
+            raise ValueError(f"train_background: frame {i} is {f.shape}, frame 0 {used[0].shape}")
+    model = _model(lower_median(used), modality, cfg)
+    fifo = (model.bgr,) * _fifo_len(cfg)
+    return BackgroundState(modality=modality, fifo=fifo, model=model, prev_flow_gray=None,
+                           frame_index=0)
+
+
+def _hsv_planes(frame: np.ndarray, modality: str) -> tuple[np.ndarray | None, ...]:
+    if modality == "gray":
+        return None, None, frame
+    return tuple(cv2.split(cv2.cvtColor(frame, cv2.COLOR_BGR2HSV_FULL)))
+
+
+def _distance_and_shadow(
+    planes: tuple[np.ndarray | None, ...], model: _Model, cfg: BackgroundConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """D_B as uint8 (0..255 for [0, 1]) and the shadow map (bool), both (H,W)."""
+    h, s, v = planes
+    assert v is not None
+    dist = cv2.absdiff(v, model.v)
+    ratio_ok = (v >= model.ratio_lo) & (v <= model.ratio_hi)
+    if (h is None or s is None or model.h is None or model.s is None or model.colour is None
+            or model.hue_ok is None):
+        shadow = ratio_ok if cfg.gray_shadows else np.zeros_like(ratio_ok)
+        return dist, shadow
+    colour = model.colour & (v > _u8_floor(cfg.colour_min_value))  # S and H mean something
+    ds = cv2.absdiff(s, model.s)
+    ds[~colour] = 0
+    dh = np.subtract(h, model.h)  # uint8 wraps: (h1 - h2) mod 256
+    dh = np.minimum(dh, np.negative(dh))  # circular difference, 0..128 (128 = π)
+    hue_ok = colour & model.hue_ok & (s > _u8_floor(cfg.hue_min_sat))
+    hue_term = cv2.add(dh, dh)  # saturating: 0..255 for [0, π]
+    hue_term[~hue_ok] = 0
+    dist = cv2.max(cv2.max(dist, ds), hue_term)
+    sat_close = ds <= _u8_floor(cfg.shadow_sat_tol)  # true where S is not meaningful (ds = 0)
+    hue_close = ~hue_ok | (dh <= _u8_floor(cfg.shadow_hue_tol_rad, 128.0 / math.pi))
+    return dist, ratio_ok & sat_close & hue_close
+
+
+@dataclass(frozen=True, eq=False)
+class _BlobPixels:
+    """The candidate pixels: flat indices (P,) int64 and their blob labels (P,) int32."""
+
+    index: np.ndarray
+    label: np.ndarray
+
+
+def _blob_pixels(candidate: np.ndarray, blob_labels: np.ndarray) -> _BlobPixels:
+    index = np.flatnonzero(candidate)
+    return _BlobPixels(index=index, label=blob_labels.ravel()[index])
+
+
+def _mvo_labels(
+    pixels: _BlobPixels, blobs: BlobTable, shape: tuple[int, ...]
+) -> tuple[np.ndarray, np.ndarray]:
+    """The MVO label image (H,W) int32 and the flat indices of its pixels."""
+    lut = np.concatenate([np.zeros(1, np.int32), blobs.mvo_label])
+    values = lut[pixels.label]
+    keep = values > 0
+    mvo_labels = np.zeros(shape, np.int32)
+    mvo_index = pixels.index[keep]
+    mvo_labels.ravel()[mvo_index] = values[keep]
+    return mvo_labels, mvo_index
+
+
+def _blob_stats(
+    pixels: _BlobPixels, stats: np.ndarray, dist8: np.ndarray, flow_mag: np.ndarray | None,
+    flow_factor: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per blob (labels 1..K): max D_B (uint8) and mean flow magnitude (px/frame, NaN: none)."""
+    k = stats.shape[0] - 1
+    idx, lab = pixels.index, pixels.label
+    max8 = np.zeros(k + 1, np.uint8)
+    np.maximum.at(max8, lab, dist8.ravel()[idx])
+    if flow_mag is None:
+        return max8[1:], np.full(k, np.nan)
+    width = dist8.shape[1]
+    rows = np.minimum(idx // width // flow_factor, flow_mag.shape[0] - 1)
+    cols = np.minimum(idx % width // flow_factor, flow_mag.shape[1] - 1)
+    total = np.bincount(lab, weights=flow_mag[rows, cols], minlength=k + 1)
+    return max8[1:], total[1:] / np.maximum(stats[1:, cv2.CC_STAT_AREA], 1)
+
+
+def _flow_magnitude(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
+    """Dense DIS flow magnitude from prev to cur, in full-resolution px/frame, (h,w) float32."""
+    dis = cv2.DISOpticalFlow.create(cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST)
+    flow = np.asarray(dis.calc(prev, cur, None))  # type: ignore[call-overload]
+    return cv2.magnitude(flow[..., 0], flow[..., 1]) * np.float32(factor)
+
+
+def _blob_table(
+    pixels: _BlobPixels, stats: np.ndarray, dist8: np.ndarray, flow_mag: np.ndarray | None,
+    flow_factor: int, cfg: BackgroundConfig,
+) -> BlobTable:
+    k = stats.shape[0] - 1
+    max8, mean_flow = _blob_stats(pixels, stats, dist8, flow_mag, flow_factor)
+    area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
+    area_ok = area > cfg.min_area_px
+    strong_ok = max8 > _u8_floor(cfg.t_high)
+    flow_ok = np.isnan(mean_flow) | (mean_flow > cfg.min_mean_flow_px)
+    is_mvo = area_ok & strong_ok & flow_ok
+    mvo_label = np.zeros(k, np.int32)
+    mvo_label[is_mvo] = np.arange(1, int(is_mvo.sum()) + 1, dtype=np.int32)
+    box = stats[1:, :4].astype(np.float64)
+    box[:, :2] -= 0.5
+    return BlobTable(
+        label=np.arange(1, k + 1, dtype=np.int32), area_px=area,
+        max_distance=max8.astype(np.float32) / np.float32(255.0), mean_flow_px=mean_flow,
+        area_ok=area_ok, strong_ok=strong_ok, flow_ok=flow_ok, is_mvo=is_mvo,
+        mvo_label=mvo_label, box_xywh=box,
+    )
+
+
+def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray) -> np.ndarray:
+    """Foreground shadows: shadow pixels in an 8-connected component of (shadow | MVO) that
+    holds an MVO pixel. shadow, mvo: (H,W) bool; mvo_index: flat indices of the MVO pixels."""
+    fg_shadow = np.zeros_like(shadow)
+    shadow_index = np.flatnonzero(shadow)
+    if len(mvo_index) == 0 or len(shadow_index) == 0:
+        return fg_shadow
+    union = (shadow | mvo).view(np.uint8)
+    n, comp = cv2.connectedComponentsWithAlgorithm(union, 8, cv2.CV_32S, cv2.CCL_GRANA)
+    touching = np.zeros(n, bool)
+    flat = comp.ravel()
+    touching[flat[mvo_index]] = True
+    fg_shadow.ravel()[shadow_index] = touching[flat[shadow_index]]
+    return fg_shadow
+
+
+def _candidates(dist8: np.ndarray, shadow: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
+    """D_B > T_L, opened with a square kernel, shadow pixels removed: (H,W) bool."""
+    raw = dist8 > _u8_floor(cfg.t_low)
+    if cfg.open_kernel_px > 1:
+        kernel = np.ones((cfg.open_kernel_px, cfg.open_kernel_px), np.uint8)
+        raw = cv2.morphologyEx(raw.view(np.uint8), cv2.MORPH_OPEN, kernel).view(bool)
+    return raw & ~shadow
+
+
+def _update(
+    state: BackgroundState, frame: np.ndarray, keep_out: np.ndarray, cfg: BackgroundConfig
+) -> tuple[tuple[np.ndarray, ...], _Model]:
+    """Push the frame with ``keep_out`` pixels replaced by B; the new FIFO and B."""
+    pushed = frame.copy()
+    cv2.copyTo(state.model.bgr, keep_out.view(np.uint8), pushed)
+    fifo = (*state.fifo[1:], _readonly(pushed))
+    newest = len(fifo) - 1
+    samples = [fifo[newest - i * cfg.fifo_spacing_frames] for i in range(cfg.fifo_n)]
+    return fifo, _model(lower_median(samples), state.modality, cfg)
+
+
+def background_step(
+    state: BackgroundState, frame: np.ndarray, cfg: BackgroundConfig
+) -> tuple[BackgroundState, BackgroundResult]:
+    """Process one frame (BGR (H,W,3) or gray (H,W) uint8, same size as training)."""
+    frame = _as_frame(frame, state.modality)
+    if frame.shape != state.model.bgr.shape:
+        raise ValueError(f"background_step: frame {frame.shape} but background "
+                         f"{state.model.bgr.shape}")
+    if len(state.fifo) != _fifo_len(cfg):
+        raise ValueError(f"background_step: FIFO holds {len(state.fifo)} frames but the config "
+                         f"needs {_fifo_len(cfg)}: train with the same BackgroundConfig")
+    planes = _hsv_planes(frame, state.modality)
+    dist8, shadow = _distance_and_shadow(planes, state.model, cfg)
+    candidate = _candidates(dist8, shadow, cfg)
+    _, blob_labels, stats, _ = cv2.connectedComponentsWithStatsWithAlgorithm(
+        candidate.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
+    )
+    assert planes[2] is not None
+    flow_gray = _flow_gray(planes[2], cfg)
+    factor = frame.shape[1] // flow_gray.shape[1]
+    flow_mag = None
+    if stats.shape[0] > 1 and state.prev_flow_gray is not None:
+        flow_mag = _flow_magnitude(state.prev_flow_gray, flow_gray, factor)
+    pixels = _blob_pixels(candidate, blob_labels)
+    blobs = _blob_table(pixels, stats, dist8, flow_mag, factor, cfg)
+    mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
+    mvo = mvo_labels > 0
+    fg_shadow = _split_shadows(shadow, mvo, mvo_index)
+    fifo, model = _update(state, frame, mvo | fg_shadow, cfg)
+    result = BackgroundResult(
+        frame_index=state.frame_index, background_bgr=state.model.bgr,
+        distance=np.multiply(dist8, np.float32(1.0 / 255.0), dtype=np.float32), shadow=shadow,
+        candidate=candidate, blob_labels=blob_labels, mvo_labels=mvo_labels,
+        ghost_mask=candidate & ~mvo, fg_shadow=fg_shadow,
+        ghost_shadow=shadow & ~fg_shadow, blobs=blobs,
+    )
+    new_state = BackgroundState(modality=state.modality, fifo=fifo, model=model,
+                                prev_flow_gray=flow_gray, frame_index=state.frame_index + 1)
+    return new_state, result
