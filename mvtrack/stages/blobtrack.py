@@ -36,8 +36,9 @@ edge: nearest the camera), a pixel inside none to the nearest. The merged target
 then corrected by how far its assigned pixels sit from the part of its prediction that the other
 targets do not explain, so the prediction follows the target through the merge.
 
-Detections (:func:`track_boxes`): the same rules on boxes; a merged target that does not get the
-detection box coasts on its predicted box. Rows with an external ``track`` id >= 0 skip the
+Detections (:func:`track_boxes`): the same rules on boxes, except that continuations are chosen
+one-to-one first (:func:`_associate_boxes`); a merged target that does not get the detection box
+coasts on its predicted box. Rows with an external ``track`` id >= 0 skip the
 rules: an external id present in the previous frame keeps its label; an external id seen for
 the first time, or again after one or more frames of absence, gets a new label (a label's life
 is one unbroken run of frames everywhere in mvtrack; the multi-camera stage re-attaches).
@@ -50,6 +51,7 @@ from dataclasses import dataclass, field, replace
 import cv2
 import numpy as np
 from scipy import ndimage
+from scipy.optimize import linear_sum_assignment
 
 from mvtrack.params import TrackerConfig
 
@@ -229,6 +231,33 @@ def _associate(overlap: np.ndarray, linked: np.ndarray, sizes: np.ndarray) -> _P
         rows = np.flatnonzero(linked[:, b])
         parent.append(-1 if heirs[b] or len(rows) == 0 else int(rows[np.argmax(overlap[rows, b])]))
     return _Plan(tuple(tuple(h) for h in heirs), tuple(parent))
+
+
+def _associate_boxes(overlap: np.ndarray, linked: np.ndarray) -> _Plan:
+    """Rules 1-4 for boxes, with continuations chosen one-to-one first.
+
+    Boxes of different people overlap far more often than blobs do (a box holds background), so
+    a greedy per-target choice would send two targets to one box while another box they overlap
+    stays free. Continuations are therefore the maximum-IoU one-to-one assignment on the linked
+    pairs (Hungarian); a target left without a box continues in the box it overlaps most, which
+    makes that box a merge; boxes left without a target are split children or births.
+    """
+    n_rows, n_blobs = linked.shape
+    heirs: list[list[int]] = [[] for _ in range(n_blobs)]
+    r_idx, c_idx = linear_sum_assignment(np.where(linked, overlap, 0.0), maximize=True)
+    matched = set()
+    for r, c in zip(r_idx, c_idx, strict=True):
+        if linked[r, c]:
+            heirs[int(c)].append(int(r))
+            matched.add(int(r))
+    for r in range(n_rows):
+        if r not in matched and linked[r].any():
+            heirs[int(np.argmax(np.where(linked[r], overlap[r], -np.inf)))].append(r)
+    parent = []
+    for b in range(n_blobs):
+        rows = np.flatnonzero(linked[:, b])
+        parent.append(-1 if heirs[b] or len(rows) == 0 else int(rows[np.argmax(overlap[rows, b])]))
+    return _Plan(tuple(tuple(sorted(h)) for h in heirs), tuple(parent))
 
 
 def _events(
@@ -697,7 +726,7 @@ def track_boxes(
     own_rows = np.array([i for i, t in enumerate(prev) if t.external_id < 0], np.int64)
     own_cols = np.flatnonzero(ext < 0)
     sub = iou[np.ix_(own_rows, own_cols)]
-    plan = _associate(sub, sub > cfg.min_box_iou, boxes[own_cols, 2] * boxes[own_cols, 3])
+    plan = _associate_boxes(sub, sub > cfg.min_box_iou)
     work = _BoxFrame(rows, iou, own_rows, own_cols, plan, state.next_label)
     by_ext = {t.external_id: t for t in prev if t.external_id >= 0}
     for j in np.flatnonzero(ext >= 0):
