@@ -259,3 +259,13 @@ def test_boxes_external_ids_and_reappearance() -> None:
     assert r3.labels.tolist() == [1, 3] and r3.births == (3,)  # id 9 came back: new label
     with pytest.raises(ValueError, match="duplicate"):
         track_boxes(state, box, np.array([7, 7]), CFG)
+
+
+def test_boxes_continue_one_to_one_before_merging() -> None:
+    # B's best match is A's new box, but B also overlaps its own new box: no merge.
+    state, _ = track_boxes(tracker_init(), np.array([[0.0, 0, 20, 40], [14.0, 0, 20, 40]]),
+                           None, CFG)
+    state, r = track_boxes(state, np.array([[4.0, 0, 20, 40], [26.0, 0, 20, 40]]), None, CFG)
+    assert r.overlap[1, 0] > r.overlap[1, 1] > CFG.min_box_iou  # greedy would merge
+    assert r.merges == () and r.labels.tolist() == [1, 2]
+    np.testing.assert_allclose(r.boxes_xywh[1], [26.0, 0, 20, 40])
