@@ -170,7 +170,9 @@ def _check_name(name: Any, where: str) -> str:
     if not isinstance(name, str) or not name.strip() or name != name.strip():
         raise ClipError(f"{where}: camera name must be a non-empty string, got {name!r}")
     if _BAD_NAME_CHARS & set(name):
-        raise ClipError(f'{where}: camera name {name!r} may not contain , " / \\ or whitespace')
+        raise ClipError(
+            f'{where}: camera name {name!r} may not contain , " / \\ tabs or line breaks'
+        )
     return name
 
 
