@@ -157,6 +157,11 @@ def params_check(file: Annotated[Path, typer.Argument(help="Thresholds TOML file
     out.print(f"{file}: ok")
 
 
+def _shown_path(path: Path, root: Path) -> str:
+    """A camera source relative to its clip when it lies inside it."""
+    return str(path.relative_to(root)) if path.is_relative_to(root) else str(path)
+
+
 @app.command()
 def info(clip: Annotated[Path, typer.Argument(help="Clip directory.")]) -> None:
     """Describe a clip: cameras, sizes, modality, frame counts, fps, overlaps, truth."""
@@ -169,7 +174,7 @@ def info(clip: Annotated[Path, typer.Argument(help="Clip directory.")]) -> None:
         table.add_column(col)
     for cam in spec.cameras:
         table.add_row(
-            cam.name, cam.kind, str(cam.source.relative_to(spec.root)),
+            cam.name, cam.kind, _shown_path(cam.source, spec.root),
             f"{cam.size[0]}x{cam.size[1]}", cam.modality, str(cam.length), str(cam.offset),
         )
     out.print(table)
@@ -234,6 +239,8 @@ def track(
         with progress_bar("tracking") as update:
             summary = run(opened, resolved, rng, [writer], progress=update)
         writer.close(run_info(opened.spec, resolved, rng, summary))
+        for warning in opened.warnings[len(opened.spec.warnings):]:
+            err.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if summary.interrupted:
         err.print(f"interrupted after {summary.frames} frames; results so far in {out_dir}")
         raise typer.Exit(code=130)
@@ -272,6 +279,89 @@ def eval_(
             table.add_row(key, *(_fmt(cams[c].get("masks", {}).get(key, "-")) for c in cams))
     out.print(table)
     out.print(f"wrote {results / 'metrics.json'}")
+
+
+def shared_data_dir() -> Path | None:
+    """The project's shared real data (PETS 2009), when this checkout sits beside it."""
+    import os
+
+    env = os.environ.get("MVTRACK_SHARED_DATA")
+    candidates = [Path(env)] if env else []
+    candidates += [Path.cwd().parent / "shared" / "data",
+                   Path(__file__).resolve().parents[2] / "shared" / "data"]
+    return next((c for c in candidates if (c / "pets2009-s2l1").is_dir()), None)
+
+
+def _first_frames(clip: Path, n: int) -> tuple[str, list[Any], str]:
+    """The first ``n`` frames of a clip's first video camera, decoded into memory."""
+    from mvtrack.io import open_clip
+
+    with open_clip(clip) as opened:
+        video = [c for c in opened.spec.cameras if c.kind != "detections"]
+        if not video:
+            raise fail(f"{clip}: no video camera to benchmark")
+        cam = video[0]
+        rng = range(min(n, opened.spec.frame_count))
+        frames = [fs.images[cam.name] for fs in opened.frames(rng)]
+    return f"{clip.name}/{cam.name}", frames, cam.modality
+
+
+@app.command()
+def bench(
+    clips: Annotated[
+        list[Path] | None,
+        typer.Argument(help="Clips to time (default: a generated 768x576 clip and PETS View_001)."),
+    ] = None,
+    frames: Annotated[int, typer.Option(help="Frames per clip.")] = 150,
+    json_out: Annotated[
+        Path | None, typer.Option("--json", help="Also write the table here.")
+    ] = None,
+) -> None:
+    """Front-end throughput (camera-frames/s) against OpenCV MOG2, and memory growth."""
+    import tempfile
+
+    from mvtrack.bench import bench_frontend
+
+    params = load_params()
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        if not clips:
+            from mvtrack.generate import generate_clip
+
+            demo = generate_clip(Path(tmp) / "bench-pair", "pair", seed=0, frames=frames,
+                                 size=(768, 576))
+            pets = shared_data_dir()
+            clips = [demo] + ([pets / "pets2009-s2l1"] if pets else [])
+        for clip in clips:
+            if clip.name == "pets2009-s2l1":
+                name, imgs, modality = "pets2009-s2l1/View_001", _pets_frames(clip, frames), "rgb"
+            else:
+                name, imgs, modality = _first_frames(clip, frames)
+            err.print(f"timing {name} ({len(imgs)} frames)...")
+            rows.append(bench_frontend(name, imgs, modality, params).as_dict())
+    table = Table(title="front end vs MOG2 (one thread, camera-frames per second)")
+    for key in rows[0]:
+        table.add_column(key)
+    for row in rows:
+        table.add_row(*(str(v) for v in row.values()))
+    out.print(table)
+    if json_out is not None:
+        json_out.write_text(json.dumps(rows, indent=2) + "\n")
+
+
+def _pets_frames(folder: Path, n: int) -> list[Any]:
+    """PETS View_001 straight from the shared data folder's video."""
+    import cv2
+
+    cap = cv2.VideoCapture(str(folder / "View_001.avi"))
+    frames = []
+    while len(frames) < n:
+        ok, frame = cap.read()
+        if not ok:
+            break
+        frames.append(frame)
+    cap.release()
+    return frames
 
 
 def main() -> None:
