@@ -263,8 +263,9 @@ def test_boxes_external_ids_and_reappearance() -> None:
 
 def test_boxes_continue_one_to_one_before_merging() -> None:
     # B's best match is A's new box, but B also overlaps its own new box: no merge.
-    state, _ = track_boxes(tracker_init(), np.array([[0.0, 0, 20, 40], [14.0, 0, 20, 40]]),
-                           None, CFG)
+    state, _ = track_boxes(
+        tracker_init(), np.array([[0.0, 0, 20, 40], [14.0, 0, 20, 40]]), None, CFG
+    )
     state, r = track_boxes(state, np.array([[4.0, 0, 20, 40], [26.0, 0, 20, 40]]), None, CFG)
     assert r.overlap[1, 0] > r.overlap[1, 1] > CFG.min_box_iou  # greedy would merge
     assert r.merges == () and r.labels.tolist() == [1, 2]

@@ -34,8 +34,9 @@ def test_upright_rectangle_both_methods_agree() -> None:
         assert f.height_px == pytest.approx(40.0)
         np.testing.assert_allclose(f.up, [0.0, -1.0], atol=1e-9)
     f = feet_pca(m)
-    np.testing.assert_allclose(f.box_corners_xy, [[19.5, 9.5], [29.5, 9.5], [29.5, 49.5],
-                                                  [19.5, 49.5]], atol=1e-9)
+    np.testing.assert_allclose(
+        f.box_corners_xy, [[19.5, 9.5], [29.5, 9.5], [29.5, 49.5], [19.5, 49.5]], atol=1e-9
+    )
     np.testing.assert_allclose(f.outline_xy, [[20, 49], [29, 49]], atol=1e-9)
 
 
@@ -112,7 +113,10 @@ def _to_image(uv: np.ndarray, foot_xy: np.ndarray, tilt_rad: float) -> np.ndarra
 
 
 def person_mask(
-    height: float, tilt_rad: float, stance: float, rng: np.random.Generator,
+    height: float,
+    tilt_rad: float,
+    stance: float,
+    rng: np.random.Generator,
     shape: tuple[int, int] = (240, 320),
 ) -> tuple[np.ndarray, np.ndarray]:
     """A walking-person silhouette (head, body, arms, two legs with soles on v = 0; one piece),
@@ -130,23 +134,39 @@ def person_mask(
     def capsule(a: tuple[float, float], b: tuple[float, float], r: float) -> None:
         pa, pb = (_to_image(np.array([p]), foot, tilt_rad)[0] for p in (a, b))
         thickness = max(1, round(2 * r))
-        cv2.line(mask, tuple(np.round(pa).astype(int)), tuple(np.round(pb).astype(int)), 1,
-                 thickness)
+        cv2.line(
+            mask, tuple(np.round(pa).astype(int)), tuple(np.round(pb).astype(int)), 1, thickness
+        )
 
     head_r = 0.065 * hgt
     centre = _to_image(np.array([[0.0, -hgt + head_r]]), foot, tilt_rad)[0]
     cv2.circle(mask, tuple(np.round(centre).astype(int)), round(head_r), 1, -1)
-    poly([(-0.11 * hgt, -0.88 * hgt), (0.11 * hgt, -0.88 * hgt), (0.09 * hgt, -0.47 * hgt),
-          (-0.09 * hgt, -0.47 * hgt)])  # torso
+    poly(
+        [
+            (-0.11 * hgt, -0.88 * hgt),
+            (0.11 * hgt, -0.88 * hgt),
+            (0.09 * hgt, -0.47 * hgt),
+            (-0.09 * hgt, -0.47 * hgt),
+        ]
+    )  # torso
     swing = rng.uniform(-0.08, 0.08) * hgt
     for side in (-1, 1):
-        capsule((side * 0.1 * hgt, -0.82 * hgt), (side * 0.12 * hgt + swing * side, -0.5 * hgt),
-                0.025 * hgt)  # arms
+        capsule(
+            (side * 0.1 * hgt, -0.82 * hgt),
+            (side * 0.12 * hgt + swing * side, -0.5 * hgt),
+            0.025 * hgt,
+        )  # arms
     leg_w = 0.05 * hgt
     for side in (-1, 1):
         toe = side * stance * hgt / 2
-        poly([(side * 0.02 * hgt, -0.5 * hgt), (side * 0.02 * hgt + side * leg_w * 1.4,
-              -0.5 * hgt), (toe + side * leg_w / 2, 0.0), (toe - side * leg_w / 2, 0.0)])
+        poly(
+            [
+                (side * 0.02 * hgt, -0.5 * hgt),
+                (side * 0.02 * hgt + side * leg_w * 1.4, -0.5 * hgt),
+                (toe + side * leg_w / 2, 0.0),
+                (toe - side * leg_w / 2, 0.0),
+            ]
+        )
     return mask.astype(bool), foot
 
 
@@ -168,8 +188,7 @@ def test_rotated_rectangle_pca_recovers_the_bottom_centre() -> None:
         m = np.zeros((160, 160), np.uint8)
         foot = np.array([80.0, 130.0])
         uv = np.array([[-8, -80], [8, -80], [8, 0], [-8, 0]], np.float64)
-        cv2.fillPoly(m, [np.round(_to_image(uv, foot, tilt) * 16).astype(np.int32)], 1,
-                     shift=4)
+        cv2.fillPoly(m, [np.round(_to_image(uv, foot, tilt) * 16).astype(np.int32)], 1, shift=4)
         pca, box = feet_pca(m.astype(bool)), feet_bbox(m.astype(bool))
         assert np.linalg.norm(pca.point - foot) < 1.5, deg
         assert np.linalg.norm(box.point - foot) > 5, deg
@@ -198,8 +217,10 @@ def test_upright_people_pca_no_worse_than_bbox() -> None:
 
 
 @settings(max_examples=60, deadline=None)
-@given(st.lists(st.tuples(st.integers(0, 29), st.integers(0, 29)), min_size=1, max_size=60),
-       st.booleans())
+@given(
+    st.lists(st.tuples(st.integers(0, 29), st.integers(0, 29)), min_size=1, max_size=60),
+    st.booleans(),
+)
 def test_feet_inside_the_mask_box(pixels, dilate) -> None:
     m = np.zeros((30, 30), bool)
     for x, y in pixels:

@@ -288,8 +288,9 @@ def _colour_codes(frame: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     """(h, w) int64 histogram bin of every pixel; frame (h, w) or (h, w, C), uint8 or [0, 1]."""
     f = np.asarray(frame)
     scale = 256.0 if f.dtype == np.uint8 else 1.0
-    q = np.clip((f.astype(np.float64) / scale * cfg.colour_bins).astype(np.int64), 0,
-                cfg.colour_bins - 1)
+    q = np.clip(
+        (f.astype(np.float64) / scale * cfg.colour_bins).astype(np.int64), 0, cfg.colour_bins - 1
+    )
     if q.ndim == 2:
         return q
     codes = np.zeros(q.shape[:2], np.int64)
@@ -330,8 +331,9 @@ def _paint_prediction(track: TargetTrack, shape: tuple[int, int], origin: np.nda
     return out
 
 
-def _crop_window(blob_slice: tuple[slice, slice], tracks: list[TargetTrack], shape: tuple[int, ...]
-                 ) -> tuple[slice, slice]:
+def _crop_window(
+    blob_slice: tuple[slice, slice], tracks: list[TargetTrack], shape: tuple[int, ...]
+) -> tuple[slice, slice]:
     """The blob's box grown to hold every merged target's prediction, clipped to the frame."""
     y0, y1 = blob_slice[0].start, blob_slice[0].stop
     x0, x1 = blob_slice[1].start, blob_slice[1].stop
@@ -359,14 +361,21 @@ def _colour_scores(
 
 def _depth_key(tracks: list[TargetTrack]) -> np.ndarray:
     """(T,) float64: predicted bottom edge of each target (larger = nearer the camera)."""
-    return np.array([
-        t.predicted_xy()[1] + t.template.shape[0] - t.template_centroid_xy[1]
-        if t.template is not None else -np.inf for t in tracks
-    ])
+    return np.array(
+        [
+            t.predicted_xy()[1] + t.template.shape[0] - t.template_centroid_xy[1]
+            if t.template is not None
+            else -np.inf
+            for t in tracks
+        ]
+    )
 
 
 def _divide_blob(
-    blob: np.ndarray, tracks: list[TargetTrack], codes: np.ndarray | None, origin: np.ndarray,
+    blob: np.ndarray,
+    tracks: list[TargetTrack],
+    codes: np.ndarray | None,
+    origin: np.ndarray,
     cfg: TrackerConfig,
 ) -> tuple[np.ndarray, dict[str, int], np.ndarray]:
     """Assign each pixel of ``blob`` (a crop at ``origin``) to one of ``tracks``.
@@ -381,10 +390,14 @@ def _divide_blob(
     pred = np.stack([_paint_prediction(t, blob.shape, origin) for t in tracks])
     ys, xs = np.nonzero(blob)
     far = float(sum(blob.shape))  # farther than any pixel of the crop
-    dist = np.stack([
-        cv2.distanceTransform((~p).astype(np.uint8), cv2.DIST_L2, 5)[ys, xs]
-        if p.any() else np.full(len(ys), far) for p in pred
-    ]).astype(np.float64)
+    dist = np.stack(
+        [
+            cv2.distanceTransform((~p).astype(np.uint8), cv2.DIST_L2, 5)[ys, xs]
+            if p.any()
+            else np.full(len(ys), far)
+            for p in pred
+        ]
+    ).astype(np.float64)
     cover = dist == 0
     n_cover = cover.sum(axis=0)
     spatial = -dist / cfg.merge_distance_px
@@ -409,8 +422,9 @@ def _divide_blob(
     return out, counts, pred
 
 
-def _corrected_centroid(track: TargetTrack, mine: np.ndarray, visible: np.ndarray,
-                        origin: np.ndarray) -> np.ndarray:
+def _corrected_centroid(
+    track: TargetTrack, mine: np.ndarray, visible: np.ndarray, origin: np.ndarray
+) -> np.ndarray:
     """Prediction + (centroid of the assigned pixels - centroid of the visible prediction)."""
     pred = track.predicted_xy()
     if not mine.any():
@@ -430,12 +444,12 @@ def _corrected_centroid(track: TargetTrack, mine: np.ndarray, visible: np.ndarra
 class _Inputs:
     """This frame's colour evidence and the config, passed together."""
 
-    codes: np.ndarray | None  # (H, W) int64 colour codes, None without a frame
-    frame: np.ndarray | None
+    frame: np.ndarray | None  # (H, W) or (H, W, C) image, None without colour
     cfg: TrackerConfig
 
     def codes_in(self, window: tuple[slice, slice]) -> np.ndarray | None:
-        return None if self.codes is None else self.codes[window]
+        """(h, w) int64 colour codes of the frame in ``window``, or None without a frame."""
+        return None if self.frame is None else _colour_codes(self.frame[window], self.cfg)
 
 
 @dataclass
@@ -472,8 +486,12 @@ def _mask_overlap(
 
 
 def _merge_blob(
-    work: _Frame, blob_id: int, window: tuple[slice, slice], blob: np.ndarray,
-    tracks: list[TargetTrack], ctx: _Inputs,
+    work: _Frame,
+    blob_id: int,
+    window: tuple[slice, slice],
+    blob: np.ndarray,
+    tracks: list[TargetTrack],
+    ctx: _Inputs,
 ) -> None:
     origin = np.array([window[1].start, window[0].start], np.float64)
     who, counts, pred = _divide_blob(blob, tracks, ctx.codes_in(window), origin, ctx.cfg)
@@ -490,51 +508,70 @@ def _merge_blob(
             work.merged.add(t.label)
             work.blob_of[t.label] = blob_id
     work.merges.append((blob_id, tuple(int(v) for v in labels)))
-    work.divisions.append(MergeDivision(
-        blob_id=blob_id, labels=labels,
-        predicted_xy=np.stack([t.predicted_xy() for t in tracks]), assigned_px=assigned, **counts,
-    ))
+    work.divisions.append(
+        MergeDivision(
+            blob_id=blob_id,
+            labels=labels,
+            predicted_xy=np.stack([t.predicted_xy() for t in tracks]),
+            assigned_px=assigned,
+            **counts,
+        )
+    )
 
 
 def _mask_stats(label_image: np.ndarray) -> tuple[np.ndarray, dict[int, tuple[slice, slice]]]:
-    labels = np.unique(label_image[label_image > 0]).astype(np.int64)
-    slices: dict[int, tuple[slice, slice]] = {}
-    for lab in labels:
-        ys, xs = np.nonzero(label_image == lab)  # fine for a few targets per frame
-        slices[int(lab)] = (slice(int(ys.min()), int(ys.max()) + 1),
-                            slice(int(xs.min()), int(xs.max()) + 1))
-    return labels, slices
+    """Sorted labels present (int64) and each one's bounding slices."""
+    fg = label_image > 0
+    labels = np.unique(label_image[fg]).astype(np.int64)
+    compact = np.zeros(label_image.shape, np.int64)
+    compact[fg] = np.searchsorted(labels, label_image[fg]) + 1
+    objects = ndimage.find_objects(compact)  # index k <-> labels[k]
+    return labels, {int(lab): objects[k] for k, lab in enumerate(labels)}
 
 
 def _new_mask_track(
-    old: TargetTrack | None, label: int, crop: np.ndarray, window: tuple[slice, slice],
+    old: TargetTrack | None,
+    label: int,
+    crop: np.ndarray,
+    window: tuple[slice, slice],
     ctx: _Inputs,
 ) -> TargetTrack:
     """A target's memory after an unmerged frame: template, centroid and colour refreshed."""
     ys, xs = np.nonzero(crop)
     origin = np.array([window[1].start, window[0].start], np.float64)
     local = np.array([xs.mean(), ys.mean()])
-    box = np.array([origin[0] + xs.min() - _HALF_PX, origin[1] + ys.min() - _HALF_PX,
-                    xs.max() - xs.min() + 1.0, ys.max() - ys.min() + 1.0])
+    box = np.array(
+        [
+            origin[0] + xs.min() - _HALF_PX,
+            origin[1] + ys.min() - _HALF_PX,
+            xs.max() - xs.min() + 1.0,
+            ys.max() - ys.min() + 1.0,
+        ]
+    )
     hist = None if old is None else old.colour_hist
     codes, cfg = ctx.codes_in(window), ctx.cfg
     if codes is not None and ctx.frame is not None:
         hist = _update_hist(hist, codes[ys, xs], _n_codes(ctx.frame, cfg), cfg)
     base = old or TargetTrack(label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box)
     return replace(
-        base, centroids_xy=_push_centroid(base, origin + local, cfg), box_xywh=box,
-        template=crop.copy(), template_centroid_xy=local, colour_hist=hist, merged=False,
+        base,
+        centroids_xy=_push_centroid(base, origin + local, cfg),
+        box_xywh=box,
+        template=crop.copy(),
+        template_centroid_xy=local,
+        colour_hist=hist,
+        merged=False,
     )
 
 
-def _check_mask_inputs(state: TrackerState, mvo_labels: np.ndarray,
-                       frame: np.ndarray | None) -> None:
+def _check_mask_inputs(
+    state: TrackerState, mvo_labels: np.ndarray, frame: np.ndarray | None
+) -> None:
     if mvo_labels.ndim != 2:
         raise ValueError(f"track_masks: mvo_labels must be (H, W), got {mvo_labels.shape}")
     if state.label_image is not None and state.label_image.shape != mvo_labels.shape:
         raise ValueError(
-            f"track_masks: frame size changed from {state.label_image.shape} to "
-            f"{mvo_labels.shape}"
+            f"track_masks: frame size changed from {state.label_image.shape} to {mvo_labels.shape}"
         )
     if frame is not None and np.shape(frame)[:2] != mvo_labels.shape:
         raise ValueError(f"track_masks: frame {np.shape(frame)} does not match {mvo_labels.shape}")
@@ -557,7 +594,7 @@ def track_masks(
     slices = ndimage.find_objects(cur.astype(np.int64)) if len(blob_ids) else []
     sizes = np.array([int((cur[slices[b - 1]] == b).sum()) for b in blob_ids], np.int64)
     plan = _associate(overlap, overlap >= cfg.min_overlap_px, sizes)
-    ctx = _Inputs(None if frame is None else _colour_codes(frame, cfg), frame, cfg)
+    ctx = _Inputs(frame, cfg)
 
     work = _Frame(np.zeros(cur.shape, np.int32), rows, overlap, blob_ids, plan, state.next_label)
     for b, blob_id in enumerate(blob_ids):
@@ -593,8 +630,12 @@ def _finish_masks(
         areas.append(float(crop.sum()))
         if int(lab) in work.merged:  # keep the pre-merge template and colours
             prev = old[int(lab)]
-            fresh = replace(prev, centroids_xy=_push_centroid(prev, work.centroids[int(lab)], cfg),
-                            box_xywh=fresh.box_xywh, merged=True)
+            fresh = replace(
+                prev,
+                centroids_xy=_push_centroid(prev, work.centroids[int(lab)], cfg),
+                box_xywh=fresh.box_xywh,
+                merged=True,
+            )
         tracks.append(fresh)
     births, splits = _events(work.plan, rows, work.new_labels)
     present = set(labels.tolist())
@@ -614,8 +655,9 @@ def _finish_masks(
         merges=tuple(work.merges),
         merge_divisions=tuple(work.divisions),
     )
-    new_state = TrackerState(label_image=work.label_image.copy(), targets=tuple(tracks),
-                             next_label=work.next_label)
+    new_state = TrackerState(
+        label_image=work.label_image.copy(), targets=tuple(tracks), next_label=work.next_label
+    )
     return new_state, result
 
 
@@ -625,10 +667,16 @@ def _finish_masks(
 def _iou(a_xywh: np.ndarray, b_xywh: np.ndarray) -> np.ndarray:
     """(len(a), len(b)) float64 intersection over union of two box lists."""
     a, b = a_xywh[:, None, :], b_xywh[None, :, :]
-    w = np.clip(np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2])
-                - np.maximum(a[..., 0], b[..., 0]), 0, None)
-    h = np.clip(np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3])
-                - np.maximum(a[..., 1], b[..., 1]), 0, None)
+    w = np.clip(
+        np.minimum(a[..., 0] + a[..., 2], b[..., 0] + b[..., 2]) - np.maximum(a[..., 0], b[..., 0]),
+        0,
+        None,
+    )
+    h = np.clip(
+        np.minimum(a[..., 1] + a[..., 3], b[..., 1] + b[..., 3]) - np.maximum(a[..., 1], b[..., 1]),
+        0,
+        None,
+    )
     inter = w * h
     union = a[..., 2] * a[..., 3] + b[..., 2] * b[..., 3] - inter
     return np.where(union > 0, inter / np.where(union > 0, union, 1.0), 0.0)
@@ -638,12 +686,23 @@ def _box_centre(box: np.ndarray) -> np.ndarray:
     return np.array([box[0] + box[2] / 2, box[1] + box[3] / 2])
 
 
-def _box_track(old: TargetTrack | None, label: int, box: np.ndarray, ext: int,
-               cfg: TrackerConfig, merged: bool = False) -> TargetTrack:
-    base = old or TargetTrack(label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box,
-                              external_id=ext)
-    return replace(base, centroids_xy=_push_centroid(base, _box_centre(box), cfg),
-                   box_xywh=box.copy(), merged=merged)
+def _box_track(
+    old: TargetTrack | None,
+    label: int,
+    box: np.ndarray,
+    ext: int,
+    cfg: TrackerConfig,
+    merged: bool = False,
+) -> TargetTrack:
+    base = old or TargetTrack(
+        label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box, external_id=ext
+    )
+    return replace(
+        base,
+        centroids_xy=_push_centroid(base, _box_centre(box), cfg),
+        box_xywh=box.copy(),
+        merged=merged,
+    )
 
 
 def _predicted_box(t: TargetTrack) -> np.ndarray:
@@ -677,8 +736,14 @@ class _BoxFrame:
         return label
 
 
-def _merge_box(work: _BoxFrame, row: int, box: np.ndarray, foot: np.ndarray,
-               heirs: list[TargetTrack], cfg: TrackerConfig) -> None:
+def _merge_box(
+    work: _BoxFrame,
+    row: int,
+    box: np.ndarray,
+    foot: np.ndarray,
+    heirs: list[TargetTrack],
+    cfg: TrackerConfig,
+) -> None:
     """The heir whose predicted box fits the detection best gets it; the others coast."""
     predicted = np.stack([_predicted_box(t) for t in heirs])
     best = int(np.argmax(_iou(predicted, box[None])[:, 0]))
@@ -687,15 +752,19 @@ def _merge_box(work: _BoxFrame, row: int, box: np.ndarray, foot: np.ndarray,
         work.out[t.label] = (mine, row if i == best else -1, foot if i == best else _NO_FEET)
         work.tracks[t.label] = _box_track(t, t.label, mine, t.external_id, cfg, merged=True)
     work.merges.append((row, tuple(t.label for t in heirs)))
-    work.divisions.append(MergeDivision(
-        blob_id=row, labels=np.array([t.label for t in heirs], np.int64),
-        predicted_xy=np.stack([_box_centre(p) for p in predicted]),
-        assigned_px=(np.arange(len(heirs)) == best).astype(np.int64),
-    ))
+    work.divisions.append(
+        MergeDivision(
+            blob_id=row,
+            labels=np.array([t.label for t in heirs], np.int64),
+            predicted_xy=np.stack([_box_centre(p) for p in predicted]),
+            assigned_px=(np.arange(len(heirs)) == best).astype(np.int64),
+        )
+    )
 
 
-def _check_box_inputs(boxes_xywh: np.ndarray, tracks: np.ndarray | None,
-                      feet_xy: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _check_box_inputs(
+    boxes_xywh: np.ndarray, tracks: np.ndarray | None, feet_xy: np.ndarray | None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     boxes = np.asarray(boxes_xywh, np.float64).reshape(-1, 4)
     n = len(boxes)
     ext = np.full(n, -1, np.int64) if tracks is None else np.asarray(tracks, np.int64).reshape(-1)
@@ -709,7 +778,10 @@ def _check_box_inputs(boxes_xywh: np.ndarray, tracks: np.ndarray | None,
 
 
 def track_boxes(
-    state: TrackerState, boxes_xywh: np.ndarray, tracks: np.ndarray | None, cfg: TrackerConfig,
+    state: TrackerState,
+    boxes_xywh: np.ndarray,
+    tracks: np.ndarray | None,
+    cfg: TrackerConfig,
     feet_xy: np.ndarray | None = None,
 ) -> tuple[TrackerState, TrackResult]:
     """One frame of detections tracking (a camera given as detections, FORMATS.md).
@@ -777,7 +849,9 @@ def _finish_boxes(work: _BoxFrame) -> tuple[TrackerState, TrackResult]:
         merges=tuple(work.merges),
         merge_divisions=tuple(work.divisions),
     )
-    new_state = TrackerState(label_image=None,
-                             targets=tuple(work.tracks[int(v)] for v in labels),
-                             next_label=work.next_label)
+    new_state = TrackerState(
+        label_image=None,
+        targets=tuple(work.tracks[int(v)] for v in labels),
+        next_label=work.next_label,
+    )
     return new_state, result

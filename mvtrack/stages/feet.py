@@ -117,9 +117,7 @@ def feet_pca(
     v0, v1 = v.min() - _HALF_PX, v.max() + _HALF_PX
     corners_uv = np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
 
-    contours, _ = cv2.findContours(
-        mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE
-    )
+    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     outline = np.concatenate([c.reshape(-1, 2) for c in contours]).astype(np.float64)
     outline = outline + np.asarray(offset_xy, np.float64) - centre
     outline_uv = np.stack([outline @ right, outline @ down], axis=1)
