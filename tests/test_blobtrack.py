@@ -270,3 +270,34 @@ def test_boxes_continue_one_to_one_before_merging() -> None:
     assert r.overlap[1, 0] > r.overlap[1, 1] > CFG.min_box_iou  # greedy would merge
     assert r.merges == () and r.labels.tolist() == [1, 2]
     np.testing.assert_allclose(r.boxes_xywh[1], [26.0, 0, 20, 40])
+
+
+box = st.tuples(
+    st.floats(0, 180), st.floats(0, 100), st.floats(2, 40), st.floats(2, 60), st.integers(-1, 3)
+)
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.lists(st.lists(box, max_size=5), min_size=1, max_size=12), st.booleans())
+def test_box_labels_never_reused(seq, use_ids) -> None:
+    state = tracker_init()
+    ended: set[int] = set()
+    seen: set[int] = set()
+    prev: set[int] = set()
+    for rows in seq:
+        boxes = np.array([r[:4] for r in rows], np.float64).reshape(-1, 4)
+        ids = np.array([r[4] for r in rows], np.int64)
+        if use_ids:  # external ids must be unique per frame: keep the first of each
+            _, first = np.unique(np.where(ids >= 0, ids, -1 - np.arange(len(ids))), True)
+            boxes, ids = boxes[np.sort(first)], ids[np.sort(first)]
+        state, r = track_boxes(state, boxes, ids if use_ids else None, CFG)
+        cur = set(r.labels.tolist())
+        assert not (cur & ended), "a retired label came back"
+        assert all(lab > max(seen, default=0) for lab in cur - prev)
+        assert set(r.births) | {c for _, kids in r.splits for c in kids} == cur - prev
+        assert set(r.retirements) == prev - cur
+        # every detection row is some target's box
+        assert set(r.blob_of_target.tolist()) - {-1} == set(range(len(boxes)))
+        ended |= prev - cur
+        seen |= cur
+        prev = cur
