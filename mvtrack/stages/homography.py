@@ -1,0 +1,258 @@
+"""The ground-plane homography between two cameras, learned from markers (SPEC §6, thesis §3.2.6).
+
+``x_b ~ H_b_from_a @ x_a`` for feet points on the ground. :func:`fit_homography` applies the
+degeneracy rule, then either the plain normalized DLT (``cfg.method == "dlt"``) or RANSAC on the
+symmetric transfer error followed by a normalized DLT on the inliers (``"robust"``). An estimate
+that cannot be made is a falsy :class:`HomographyFailure` with a reason, never an exception.
+
+    est = fit_homography(pts_a, pts_b, cfg)
+    if est:
+        x_b = apply_homography(est.H_b_from_a, x_a)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from mvtrack.params import HomographyConfig
+
+__all__ = [
+    "HomographyEstimate",
+    "HomographyFailure",
+    "apply_homography",
+    "degeneracy_reason",
+    "dlt",
+    "fit_homography",
+    "normalizing_transform",
+    "spread",
+    "transfer_errors",
+]
+
+_EPS = 1e-12
+
+
+@dataclass(frozen=True)
+class HomographyEstimate:
+    """A valid homography and how well it fits the markers it was made from.
+
+    H_b_from_a:  (3, 3) float64, scaled so that its Frobenius norm is 1 and H[2, 2] >= 0
+    method:      "dlt" or "robust"
+    n_markers:   markers given to the fit
+    inliers:     (n_markers,) bool, the markers used by the final DLT (all of them for "dlt")
+    errors_px:   (n_markers,) float64, symmetric transfer error of every marker (px)
+    quality_px:  median symmetric transfer error over the inliers (px)
+    from_frame:  first clip frame at which this estimate is in use (-1 outside a pair)
+    """
+
+    H_b_from_a: np.ndarray
+    method: str
+    n_markers: int
+    inliers: np.ndarray
+    errors_px: np.ndarray
+    quality_px: float
+    from_frame: int = -1
+
+    def __bool__(self) -> bool:
+        return True
+
+
+@dataclass(frozen=True)
+class HomographyFailure:
+    """No valid homography: falsy, with a human-readable ``reason``."""
+
+    reason: str
+    n_markers: int = 0
+    from_frame: int = -1
+
+    def __bool__(self) -> bool:
+        return False
+
+
+def _as_points(points: np.ndarray, name: str) -> np.ndarray:
+    pts = np.asarray(points, np.float64)
+    if pts.ndim != 2 or pts.shape[1] != 2:
+        raise ValueError(f"{name} must have shape (N, 2), got {pts.shape}")
+    return pts
+
+
+def apply_homography(H: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(N, 2) float64: ``H`` applied to (N, 2) points; points mapped to infinity become inf."""
+    pts = _as_points(points, "points")
+    homog = np.c_[pts, np.ones(len(pts))] @ np.asarray(H, np.float64).T
+    w = homog[:, 2:3]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        out = homog[:, :2] / np.where(np.abs(w) < _EPS, np.nan, w)
+    return np.where(np.isfinite(out), out, np.inf)
+
+
+def transfer_errors(H_b_from_a: np.ndarray, pts_a: np.ndarray, pts_b: np.ndarray) -> np.ndarray:
+    """(N,) float64: symmetric transfer error in px, the mean of |x_b - H x_a| and |x_a - H⁻¹ x_b|.
+
+    A singular ``H`` gives inf everywhere.
+    """
+    pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
+    try:
+        H_a_from_b = np.linalg.inv(H_b_from_a)
+    except np.linalg.LinAlgError:
+        return np.full(len(pts_a), np.inf)
+    forward = np.linalg.norm(apply_homography(H_b_from_a, pts_a) - pts_b, axis=1)
+    backward = np.linalg.norm(apply_homography(H_a_from_b, pts_b) - pts_a, axis=1)
+    return np.nan_to_num(0.5 * (forward + backward), nan=np.inf)
+
+
+def normalizing_transform(points: np.ndarray) -> np.ndarray:
+    """(3, 3) similarity T moving the centroid to the origin with mean distance √2 (Hartley).
+
+    Coincident points (zero spread) get a pure translation.
+    """
+    pts = _as_points(points, "points")
+    centroid = pts.mean(axis=0)
+    mean_dist = float(np.linalg.norm(pts - centroid, axis=1).mean())
+    scale = np.sqrt(2.0) / mean_dist if mean_dist > _EPS else 1.0
+    return np.array(
+        [[scale, 0.0, -scale * centroid[0]], [0.0, scale, -scale * centroid[1]], [0.0, 0.0, 1.0]]
+    )
+
+
+def _canonical(H: np.ndarray) -> np.ndarray:
+    norm = np.linalg.norm(H)
+    H = H / norm if norm > _EPS else H
+    return -H if H[2, 2] < 0 else H
+
+
+def dlt(pts_a: np.ndarray, pts_b: np.ndarray, normalize: bool = True) -> np.ndarray:
+    """(3, 3) H_b_from_a by the DLT on n >= 4 correspondences (thesis eq. 3.5, two rows each).
+
+    With ``normalize`` (the default, and the thesis's method) both point sets are first moved by
+    :func:`normalizing_transform` and the result is de-normalized as H = T_b⁻¹ H_dlt T_a. This is
+    the raw solver: it does not judge degeneracy (see :func:`fit_homography`).
+    """
+    pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
+    if len(pts_a) != len(pts_b) or len(pts_a) < 4:
+        raise ValueError(f"dlt needs >= 4 matched points, got {len(pts_a)} and {len(pts_b)}")
+    T_a = normalizing_transform(pts_a) if normalize else np.eye(3)
+    T_b = normalizing_transform(pts_b) if normalize else np.eye(3)
+    xa = np.c_[pts_a, np.ones(len(pts_a))] @ T_a.T
+    xb = np.c_[pts_b, np.ones(len(pts_b))] @ T_b.T
+    zeros = np.zeros_like(xa)
+    rows_1 = np.c_[zeros, -xb[:, 2:3] * xa, xb[:, 1:2] * xa]
+    rows_2 = np.c_[xb[:, 2:3] * xa, zeros, -xb[:, 0:1] * xa]
+    A = np.empty((2 * len(xa), 9))
+    A[0::2], A[1::2] = rows_1, rows_2
+    _, _, vt = np.linalg.svd(A)
+    H = np.linalg.inv(T_b) @ vt[-1].reshape(3, 3) @ T_a
+    return _canonical(H)
+
+
+def spread(points: np.ndarray) -> tuple[float, float]:
+    """(ratio, area_px2) of a point set: smaller/larger principal std dev, and 4·σ1·σ2.
+
+    A uniform W×H patch has area W·H/3; collinear or coincident points have ratio 0.
+    """
+    pts = _as_points(points, "points")
+    if len(pts) < 2:
+        return 0.0, 0.0
+    sv = np.linalg.svd(pts - pts.mean(axis=0), compute_uv=False) / np.sqrt(len(pts))
+    if sv[0] <= _EPS:
+        return 0.0, 0.0
+    return float(sv[1] / sv[0]), float(4.0 * sv[0] * sv[1])
+
+
+def degeneracy_reason(pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig) -> str:
+    """Why these markers cannot give a trustworthy homography, or "" when they can."""
+    if len(pts_a) < cfg.min_markers:
+        return f"{len(pts_a)} markers, need {cfg.min_markers}"
+    for name, pts in (("first", pts_a), ("second", pts_b)):
+        ratio, area = spread(pts)
+        if ratio < cfg.min_spread_ratio:
+            return f"markers nearly collinear in the {name} camera (spread ratio {ratio:.3f})"
+        if area < cfg.min_area_px2:
+            return f"markers cover too small an area in the {name} camera ({area:.0f} px^2)"
+    return ""
+
+
+def _matrix_problem(H: np.ndarray, pts_a: np.ndarray) -> str:
+    """Why a solved H is unusable (not finite, singular, folds the markers), or ""."""
+    if not np.all(np.isfinite(H)):
+        return "homography is not finite"
+    sv = np.linalg.svd(H, compute_uv=False)
+    if sv[-1] <= 1e-9 * sv[0]:
+        return "homography is singular"
+    w = np.c_[pts_a, np.ones(len(pts_a))] @ H[2]
+    if np.any(w <= 0) and np.any(w >= 0):
+        return "homography sends markers to both sides of the horizon"
+    return ""
+
+
+def _ransac(
+    pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig, rng: np.random.Generator
+) -> np.ndarray:
+    """(N,) bool: the largest consensus set of RANSAC on the symmetric transfer error."""
+    n = len(pts_a)
+    best = np.zeros(n, bool)
+    best_score = np.inf
+    for _ in range(cfg.ransac_iterations):
+        sample = rng.choice(n, size=4, replace=False)
+        if spread(pts_a[sample])[0] < 1e-3 or spread(pts_b[sample])[0] < 1e-3:
+            continue
+        H = dlt(pts_a[sample], pts_b[sample])
+        if _matrix_problem(H, pts_a[sample]):
+            continue
+        err = transfer_errors(H, pts_a, pts_b)
+        inliers = err < cfg.ransac_threshold_px
+        # MSAC score: inliers cost their error, outliers the threshold.
+        score = float(np.minimum(err, cfg.ransac_threshold_px).sum())
+        if inliers.sum() >= 4 and score < best_score:
+            best, best_score = inliers, score
+    return best
+
+
+def fit_homography(
+    pts_a: np.ndarray,
+    pts_b: np.ndarray,
+    cfg: HomographyConfig,
+    rng: np.random.Generator | None = None,
+) -> HomographyEstimate | HomographyFailure:
+    """H_b_from_a from markers (pts_a[i] ↔ pts_b[i], each (N, 2) float64 px).
+
+    ``cfg.method`` "dlt": normalized DLT on all markers. "robust": RANSAC (``rng``, default
+    seeded from ``cfg.ransac_seed``), then normalized DLT on the consensus set, whose inliers are
+    re-selected once with the refined H. The degeneracy rule is applied to the markers and again
+    to the inliers. Returns a falsy :class:`HomographyFailure` when no trustworthy H exists.
+    """
+    pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
+    if len(pts_a) != len(pts_b):
+        raise ValueError(f"pts_a has {len(pts_a)} points but pts_b has {len(pts_b)}")
+    n = len(pts_a)
+    if not (np.all(np.isfinite(pts_a)) and np.all(np.isfinite(pts_b))):
+        return HomographyFailure("markers contain non-finite points", n)
+    reason = degeneracy_reason(pts_a, pts_b, cfg)
+    if reason:
+        return HomographyFailure(reason, n)
+    inliers = np.ones(n, bool)
+    if cfg.method == "robust":
+        inliers = _ransac(pts_a, pts_b, cfg, rng or np.random.default_rng(cfg.ransac_seed))
+        if inliers.sum() < 4:
+            return HomographyFailure("RANSAC found no consensus", n)
+        H = dlt(pts_a[inliers], pts_b[inliers])
+        refined = transfer_errors(H, pts_a, pts_b) < cfg.ransac_threshold_px
+        if refined.sum() >= 4:
+            inliers = refined
+        reason = degeneracy_reason(pts_a[inliers], pts_b[inliers], cfg)
+        if reason:
+            return HomographyFailure(f"inliers: {reason}", n)
+    H = dlt(pts_a[inliers], pts_b[inliers])
+    problem = _matrix_problem(H, pts_a[inliers])
+    if problem:
+        return HomographyFailure(problem, n)
+    errors = transfer_errors(H, pts_a, pts_b)
+    return HomographyEstimate(
+        H_b_from_a=H,
+        method=cfg.method,
+        n_markers=n,
+        inliers=inliers,
+        errors_px=errors,
+        quality_px=float(np.median(errors[inliers])),
+    )

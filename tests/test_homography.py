@@ -1,0 +1,167 @@
+"""Homography from markers: normalized DLT, degeneracy rule, robust fit, quality."""
+
+from __future__ import annotations
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mvtrack.params import HomographyConfig
+from mvtrack.stages.homography import (
+    HomographyEstimate,
+    HomographyFailure,
+    apply_homography,
+    dlt,
+    fit_homography,
+    transfer_errors,
+)
+
+SIZE = (768, 576)
+
+
+def _ground_homography(rng: np.random.Generator) -> np.ndarray:
+    """A realistic H_b_from_a: both images of one ground plane seen by two pinhole cameras."""
+    H = np.eye(3) + rng.normal(0, 0.15, (3, 3))
+    H[2, :2] = rng.normal(0, 4e-4, 2)
+    H[:2, 2] = rng.normal(0, 80, 2)
+    return H
+
+
+def _points(rng: np.random.Generator, n: int) -> np.ndarray:
+    return rng.uniform([0, 0], SIZE, (n, 2))
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.integers(4, 40))
+def test_dlt_recovers_random_homographies_from_exact_points(seed: int, n: int) -> None:
+    rng = np.random.default_rng(seed)
+    H = _ground_homography(rng)
+    pts_a = _points(rng, n)
+    if np.linalg.svd(pts_a - pts_a.mean(0), compute_uv=False)[1] < 20:
+        return  # nearly collinear draw: not a well-posed problem
+    pts_b = apply_homography(H, pts_a)
+    est = dlt(pts_a, pts_b)
+    assert np.max(transfer_errors(est, pts_a, pts_b)) < 1e-6
+    assert np.allclose(est, H / np.linalg.norm(H) * np.sign(H[2, 2]), atol=1e-8)
+
+
+def _similarity(rng: np.random.Generator) -> np.ndarray:
+    angle, scale = rng.uniform(-np.pi, np.pi), rng.uniform(0.1, 10)
+    c, s = scale * np.cos(angle), scale * np.sin(angle)
+    return np.array([[c, -s, rng.uniform(-500, 500)], [s, c, rng.uniform(-500, 500)], [0, 0, 1]])
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1))
+def test_normalized_fit_is_invariant_to_similarities(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    H = _ground_homography(rng)
+    pts_a = _points(rng, 30)
+    pts_b = apply_homography(H, pts_a) + rng.normal(0, 2.0, (30, 2))  # noisy: not exact
+    S_a, S_b = _similarity(rng), _similarity(rng)
+    H1 = dlt(pts_a, pts_b)
+    H2 = dlt(apply_homography(S_a, pts_a), apply_homography(S_b, pts_b))
+    back = np.linalg.inv(S_b) @ H2 @ S_a
+    back = back / np.linalg.norm(back) * np.sign(back[2, 2])
+    assert np.allclose(back, H1, atol=1e-7)
+
+
+def test_unnormalized_dlt_is_measurably_worse_on_pixel_coordinates() -> None:
+    """Markers where people walk: a patch of a 768x576 frame far from the pixel origin."""
+    rng = np.random.default_rng(3)
+    lo, hi = (500, 400), (760, 570)
+    ratios = []
+    for _ in range(20):
+        H = _ground_homography(rng)
+        pts_a = rng.uniform(lo, hi, (40, 2))
+        pts_b = apply_homography(H, pts_a) + rng.normal(0, 1.0, (40, 2))
+        test_a = rng.uniform(lo, hi, (200, 2))
+        truth = apply_homography(H, test_a)
+        errs = [
+            np.median(
+                np.linalg.norm(apply_homography(dlt(pts_a, pts_b, norm), test_a) - truth, axis=1)
+            )
+            for norm in (True, False)
+        ]
+        ratios.append(errs[1] / errs[0])
+    assert np.median(ratios) > 2.0, ratios
+    assert np.mean(np.array(ratios) > 1.0) > 0.8
+
+
+CFG = HomographyConfig(method="dlt", min_markers=6, min_area_px2=400.0)
+
+
+def test_degenerate_marker_sets_give_failures_not_exceptions() -> None:
+    rng = np.random.default_rng(0)
+    line = np.c_[np.linspace(0, 700, 20), np.linspace(10, 500, 20)] + rng.normal(0, 0.01, (20, 2))
+    spread = _points(rng, 20)
+    cases = {
+        "too few": (spread[:5], spread[:5] + 3),
+        "collinear in A": (line, spread),
+        "collinear in B": (spread, line),
+        "coincident": (np.full((20, 2), 100.0), spread),
+        "tiny area": (100 + rng.uniform(0, 3, (20, 2)), spread),
+        "empty": (np.zeros((0, 2)), np.zeros((0, 2))),
+        "non-finite": (np.where(spread > 600, np.nan, spread), spread),
+    }
+    for name, (pa, pb) in cases.items():
+        for method in ("dlt", "robust"):
+            cfg = HomographyConfig(method=method, min_markers=6)
+            result = fit_homography(pa, pb, cfg)
+            assert isinstance(result, HomographyFailure), name
+            assert not result and result.reason, name
+
+
+def test_folding_correspondences_are_rejected() -> None:
+    # B's points mirrored through a perspective that sends half of them behind the horizon.
+    rng = np.random.default_rng(1)
+    pts_a = _points(rng, 40)
+    H = np.array([[1.0, 0, 0], [0, 1.0, 0], [-1 / 300.0, 0, 1.0]])  # horizon at x = 300
+    pts_b = apply_homography(H, pts_a)
+    result = fit_homography(pts_a, pts_b, CFG)
+    assert not result and "horizon" in result.reason
+
+
+def test_estimate_carries_its_quality() -> None:
+    rng = np.random.default_rng(2)
+    H = _ground_homography(rng)
+    pts_a = _points(rng, 50)
+    pts_b = apply_homography(H, pts_a) + rng.normal(0, 1.0, (50, 2))
+    est = fit_homography(pts_a, pts_b, CFG)
+    assert isinstance(est, HomographyEstimate) and est
+    assert est.inliers.all() and est.n_markers == 50
+    assert 0.3 < est.quality_px < 2.0
+    assert est.quality_px == np.median(transfer_errors(est.H_b_from_a, pts_a, pts_b))
+
+
+def test_robust_fit_rejects_bad_markers_and_plain_dlt_does_not() -> None:
+    rng = np.random.default_rng(4)
+    H = _ground_homography(rng)
+    pts_a = _points(rng, 60)
+    pts_b = apply_homography(H, pts_a) + rng.normal(0, 0.7, (60, 2))
+    bad = rng.random(60) < 0.25
+    pts_b[bad] += rng.uniform(20, 80, (bad.sum(), 2)) * rng.choice([-1, 1], (bad.sum(), 2))
+    test_a = _points(rng, 300)
+    truth = apply_homography(H, test_a)
+    errors = {}
+    for method in ("dlt", "robust"):
+        est = fit_homography(pts_a, pts_b, HomographyConfig(method=method))
+        assert est
+        errors[method] = np.median(
+            np.linalg.norm(apply_homography(est.H_b_from_a, test_a) - truth, axis=1)
+        )
+    robust = fit_homography(pts_a, pts_b, HomographyConfig(method="robust"))
+    assert isinstance(robust, HomographyEstimate)
+    assert np.array_equal(robust.inliers, ~bad)
+    assert errors["robust"] < 1.0 < 5 * errors["robust"] < errors["dlt"]
+
+
+def test_robust_fit_is_reproducible_with_a_seeded_generator() -> None:
+    rng = np.random.default_rng(5)
+    pts_a = _points(rng, 30)
+    pts_b = apply_homography(_ground_homography(rng), pts_a) + rng.normal(0, 1, (30, 2))
+    cfg = HomographyConfig()
+    one = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(7))
+    two = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(7))
+    assert one and two
+    assert np.array_equal(one.H_b_from_a, two.H_b_from_a)
