@@ -1,0 +1,165 @@
+"""FOV events, Hough lines and associations."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mvtrack.params import FovConfig
+from mvtrack.stages.fov import (
+    add_event,
+    best_match,
+    detect_events,
+    estimate_line,
+    event_votes,
+    hough_points,
+    mask_touching_sides,
+    new_slot,
+)
+from mvtrack.stages.targets import CameraTargets, touching_sides
+
+SIZE = (320, 240)
+CFG = FovConfig()
+
+
+def _targets(boxes: list[list[float]], labels: list[int], heights: float = 40.0) -> CameraTargets:
+    b = np.array(boxes, float).reshape(-1, 4)
+    feet = np.c_[b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]]
+    return CameraTargets(np.array(labels, np.int64), feet, np.full(len(b), heights), b, SIZE)
+
+
+@pytest.mark.parametrize(
+    ("before", "after", "expected"),
+    [
+        ([-0.5, 100, 20, 40], [10, 100, 20, 40], [("left", "enter")]),  # left edge -> inside
+        ([100, 100, 20, 40], [300, 100, 19.5, 40], [("right", "leave")]),  # inside -> right
+        ([100, 100, 20, 40], [100, 199.5, 20, 40], [("bottom", "leave")]),
+        ([100, -0.5, 20, 40], [100, 5, 20, 40], [("top", "enter")]),
+        ([-0.5, -0.5, 20, 40], [10, 10, 20, 40], []),  # two sides at once: no event
+        ([100, 100, 20, 40], [-0.5, -0.5, 20, 40], []),
+        ([-0.5, 100, 20, 40], [-0.5, 100, 30, 40], []),  # still touching
+        ([100, 100, 20, 40], [110, 100, 20, 40], []),  # still inside
+    ],
+)
+def test_events_table(before: list[float], after: list[float], expected: list) -> None:
+    hist, ev0 = detect_events({}, _targets([before], [7]), "b", 0, CFG.edge_margin_px)
+    assert ev0 == ()  # a target new this frame gives no event
+    _, events = detect_events(hist, _targets([after], [7]), "b", 1, CFG.edge_margin_px)
+    assert [(e.side, e.kind) for e in events] == expected
+    assert all(e.target == 7 and e.frame == 1 and e.camera == "b" for e in events)
+
+
+def test_events_use_the_margin() -> None:
+    hist, _ = detect_events({}, _targets([[1.0, 100, 20, 40]], [1]), "a", 0, 2.0)
+    assert hist[1] == (True, False, False, False)  # first column 1.5 is within 2 px
+    hist, _ = detect_events({}, _targets([[1.0, 100, 20, 40]], [1]), "a", 0, 1.0)
+    assert hist[1] == (False, False, False, False)
+
+
+def test_mask_touches_like_its_box() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        mask = np.zeros((24, 32), bool)
+        x0, y0 = rng.integers(0, 30), rng.integers(0, 22)
+        mask[y0 : y0 + rng.integers(1, 6), x0 : x0 + rng.integers(1, 6)] = True
+        rows, cols = np.nonzero(mask)
+        box = [[cols.min() - 0.5, rows.min() - 0.5, np.ptp(cols) + 1, np.ptp(rows) + 1]]
+        for margin in (0.0, 1.0, 3.0):
+            expected = touching_sides(np.array(box), (32, 24), margin)[0]
+            assert np.array_equal(mask_touching_sides(mask, margin), expected)
+
+
+def _line_error(line: np.ndarray, a: float, b: float, c: float) -> float:
+    """Mean distance from the true line's points inside the frame to the found line."""
+    xs = np.linspace(0, SIZE[0] - 1, 200)
+    ys = np.linspace(0, SIZE[1] - 1, 200)
+    pts = np.c_[xs, -(a * xs + c) / b] if abs(b) > abs(a) else np.c_[-(b * ys + c) / a, ys]
+    inside = (pts[:, 0] >= 0) & (pts[:, 0] < SIZE[0]) & (pts[:, 1] >= 0) & (pts[:, 1] < SIZE[1])
+    return float(np.abs(pts[inside] @ line[:2] + line[2]).mean())
+
+
+@settings(max_examples=40, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.floats(0, np.pi), st.integers(12, 40))
+def test_hough_recovers_drawn_lines_among_outliers(seed: int, theta: float, n: int) -> None:
+    rng = np.random.default_rng(seed)
+    a, b = np.cos(theta), np.sin(theta)
+    x0 = rng.uniform([60, 60], [260, 180])
+    c = -(a * x0[0] + b * x0[1])
+    t = rng.uniform(-150, 150, n)
+    on = x0 + t[:, None] * np.array([-b, a]) + rng.normal(0, 0.7, (n, 2))
+    on = on[(on[:, 0] >= 0) & (on[:, 0] < 320) & (on[:, 1] >= 0) & (on[:, 1] < 240)]
+    if len(on) < 8:
+        return
+    outliers = rng.uniform([0, 0], SIZE, (len(on) // 2, 2))
+    result = hough_points(np.r_[on, outliers], SIZE, CFG)
+    assert result is not None
+    assert np.isclose(np.hypot(*result.line[:2]), 1.0)
+    assert _line_error(result.line, a, b, c) < 2.0
+    assert result.n_inliers >= len(on) - 1
+    assert result.accumulator.shape == (len(result.thetas_rad), len(result.rhos_px))
+    assert result.peaks.shape[1] == 3 and result.peaks[0, 2] == result.peaks[:, 2].max()
+
+
+def test_hough_handles_vertical_lines_across_the_theta_wrap() -> None:
+    ys = np.linspace(5, 235, 30)
+    pts = np.c_[100 + 0.02 * (ys - 120), ys]  # nearly vertical: theta ~ 0 ~ pi
+    result = hough_points(pts, SIZE, CFG)
+    assert result is not None
+    assert abs(abs(result.line[0]) - 1) < 1e-3
+    assert np.abs(pts @ result.line[:2] + result.line[2]).max() < 0.5
+
+
+def test_one_event_counts_once_however_many_points_lie_on_a_line() -> None:
+    band = np.c_[np.linspace(20, 300, 10), np.full(10, 50.0)]  # ten people in a far band
+    votes = event_votes(band, np.full(10, 15.0), np.ones(10), SIZE, CFG)
+    assert votes.max() == 1.0
+
+
+def _event_targets(rng: np.random.Generator, on_line: np.ndarray, label: int) -> CameraTargets:
+    others = rng.uniform([0, 60], [320, 240], (4, 2))
+    feet = np.r_[on_line[None], others]
+    labels = np.r_[label, 1000 + rng.integers(0, 10**6, 4)]
+    boxes = np.c_[feet[:, 0] - 8, feet[:, 1] - 40, np.full(5, 16), np.full(5, 40)]
+    return CameraTargets(labels.astype(np.int64), feet, np.full(5, 40.0), boxes, SIZE)
+
+
+def test_slot_learns_the_line_from_events_with_bystanders() -> None:
+    rng = np.random.default_rng(1)
+    a, b, c = 0.6, 0.8, -200.0  # 0.6 x + 0.8 y = 200
+    slot = new_slot("a", "b", "left", SIZE)
+    cfg = FovConfig(max_fov_events=15)
+    for k in range(25):
+        x = rng.uniform(40, 300)
+        on = np.array([x, (200 - 0.6 * x) / 0.8]) + rng.normal(0, 0.7, 2)
+        slot = add_event(slot, k, _event_targets(rng, on, k), cfg)
+        slot = estimate_line(slot, cfg, k)
+    assert slot.n_events == 25 and len(slot.events) == 15
+    assert slot.line is not None and slot.line.events == 25 and slot.line.from_frame == 24
+    assert _line_error(np.array(slot.line.line), a, b, c) < 1.5
+    # the incremental accumulator equals a fresh sum over the retained events
+    fresh = sum(event_votes(e.feet, e.heights, e.weights, SIZE, cfg) for e in slot.events)
+    assert slot.accumulator is not None and np.allclose(slot.accumulator, fresh)
+
+
+def test_no_line_before_min_events() -> None:
+    slot = new_slot("a", "b", "top", SIZE)
+    rng = np.random.default_rng(2)
+    for k in range(CFG.min_fov_events - 1):
+        slot = estimate_line(
+            add_event(slot, k, _event_targets(rng, np.array([50.0, 90]), k), CFG), CFG, k
+        )
+    assert slot.line is None and slot.hough is None
+
+
+def test_best_match_uses_body_heights_and_skips_taken_targets() -> None:
+    line = (0.0, 1.0, -100.0)  # y = 100
+    feet = np.array([[50, 108.0], [150, 95.0], [250, 160.0]])
+    heights = np.array([20.0, 40.0, 40.0])  # 8/20 = 0.4 heights, 5/40 = 0.125 heights
+    boxes = np.c_[feet[:, 0] - 5, feet[:, 1] - heights, np.full(3, 10), heights]
+    t = CameraTargets(np.array([1, 2, 3], np.int64), feet, heights, boxes, SIZE)
+    assert best_match(line, t, frozenset(), CFG) == 2
+    assert best_match(line, t, frozenset({2}), CFG) is None  # 0.4 > 0.35 heights
+    assert best_match(line, t, frozenset({2}), FovConfig(fov_match_heights=0.5)) == 1
+    assert best_match(line, CameraTargets.empty(SIZE), frozenset(), CFG) is None
