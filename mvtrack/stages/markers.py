@@ -1,0 +1,193 @@
+"""Markers: corresponding feet points dropped by linked targets (SPEC §5, thesis §3.2.5).
+
+Every ``marker_every_frames`` frames, each linked pair (a_label, b_label) present in both cameras
+drops a marker (x_a, x_b) only if (a) both targets are fully inside their frames, (b) both heights
+are within ``height_tolerance`` of their median over the last ``height_window_frames`` frames, and
+(c) one of the two feet moved more than ``marker_min_move_px`` since that link's last marker.
+The store keeps one marker per cell of a grid over A's frame (newest wins), so it stays bounded
+and keeps spatial coverage.
+
+    state = markers_init(size_a)
+    state, result = marker_step(state, [(3, 7)], targets_a, targets_b, cfg, frame_index)
+    pts_a, pts_b = marker_points(state)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from mvtrack.params import MarkerConfig
+from mvtrack.stages.targets import CameraTargets
+
+__all__ = [
+    "Marker",
+    "MarkerResult",
+    "MarkerState",
+    "marker_points",
+    "marker_step",
+    "markers_init",
+]
+
+
+@dataclass(frozen=True)
+class Marker:
+    """One corresponding feet pair: x_a in camera A's pixels, x_b in camera B's."""
+
+    frame: int
+    a_label: int
+    b_label: int
+    x_a: tuple[float, float]
+    x_b: tuple[float, float]
+
+
+@dataclass(frozen=True)
+class MarkerState:
+    """Marker store and the histories the three tests need. Never mutated: steps copy.
+
+    size_a:     (width, height) of camera A (the store's grid covers it)
+    cells:      grid cell index -> newest marker in that cell
+    last:       (a_label, b_label) -> that link's last marker (test c)
+    heights_a:  label -> heights over the last ``height_window_frames`` frames, camera A
+    heights_b:  the same for camera B
+    n_dropped:  markers ever dropped (the store holds at most grid_cols * grid_rows)
+    """
+
+    size_a: tuple[int, int]
+    cells: dict[int, Marker]
+    last: dict[tuple[int, int], Marker]
+    heights_a: dict[int, tuple[float, ...]]
+    heights_b: dict[int, tuple[float, ...]]
+    n_dropped: int = 0
+
+
+@dataclass(frozen=True)
+class MarkerResult:
+    """What marker dropping did this frame.
+
+    tried:     whether this was a marker frame
+    dropped:   markers dropped this frame
+    rejected:  (a_label, b_label, reason) for each link that failed a test this frame;
+               reason is "outside", "height" or "no motion"
+    markers:   every marker in the store after this frame, oldest first
+    """
+
+    tried: bool
+    dropped: tuple[Marker, ...]
+    rejected: tuple[tuple[int, int, str], ...]
+    markers: tuple[Marker, ...]
+
+
+def markers_init(size_a: tuple[int, int]) -> MarkerState:
+    return MarkerState(size_a, {}, {}, {}, {})
+
+
+def marker_points(state: MarkerState) -> tuple[np.ndarray, np.ndarray]:
+    """((N, 2), (N, 2)) float64 copies of the stored markers' x_a and x_b, oldest first."""
+    markers = sorted(state.cells.values(), key=lambda m: m.frame)
+    if not markers:
+        return np.zeros((0, 2)), np.zeros((0, 2))
+    return np.array([m.x_a for m in markers]), np.array([m.x_b for m in markers])
+
+
+def _update_heights(
+    history: dict[int, tuple[float, ...]], targets: CameraTargets, window: int
+) -> dict[int, tuple[float, ...]]:
+    """Per-label height history of present targets (absent labels are forgotten)."""
+    return {
+        label: (*history.get(label, ()), float(h))[-window:]
+        for label, h in zip(targets.labels.tolist(), targets.heights_px.tolist(), strict=True)
+    }
+
+
+def _height_ok(history: tuple[float, ...], cfg: MarkerConfig) -> bool:
+    median = float(np.median(history))
+    return abs(history[-1] - median) <= cfg.height_tolerance * median
+
+
+def _cell(x_a: tuple[float, float], size_a: tuple[int, int], cfg: MarkerConfig) -> int:
+    width, height = size_a
+    col = int(np.clip((x_a[0] + 0.5) * cfg.grid_cols // width, 0, cfg.grid_cols - 1))
+    row = int(np.clip((x_a[1] + 0.5) * cfg.grid_rows // height, 0, cfg.grid_rows - 1))
+    return row * cfg.grid_cols + col
+
+
+def _test_link(
+    link: tuple[int, int],
+    rows: tuple[int, int],
+    inside: tuple[np.ndarray, np.ndarray],
+    heights: tuple[dict[int, tuple[float, ...]], dict[int, tuple[float, ...]]],
+    cfg: MarkerConfig,
+) -> str:
+    """The first test the link fails this frame ("" if it passes all three, except motion)."""
+    if not (inside[0][rows[0]] and inside[1][rows[1]]):
+        return "outside"
+    if not (_height_ok(heights[0][link[0]], cfg) and _height_ok(heights[1][link[1]], cfg)):
+        return "height"
+    return ""
+
+
+def marker_step(
+    state: MarkerState,
+    links: Sequence[tuple[int, int]],
+    a: CameraTargets,
+    b: CameraTargets,
+    cfg: MarkerConfig,
+    frame: int,
+) -> tuple[MarkerState, MarkerResult]:
+    """Update height histories; on marker frames drop a marker for each link passing the tests.
+
+    ``links`` are (A label, B label) pairs (FOV associations or meta-targets); links with a
+    target absent this frame are skipped. Markers of links whose targets are gone are kept.
+    """
+    heights = (
+        _update_heights(state.heights_a, a, cfg.height_window_frames),
+        _update_heights(state.heights_b, b, cfg.height_window_frames),
+    )
+    tried = frame % cfg.marker_every_frames == 0
+    cells, last = dict(state.cells), dict(state.last)
+    dropped: list[Marker] = []
+    rejected: list[tuple[int, int, str]] = []
+    if tried and links:
+        inside = (_inside(a, cfg), _inside(b, cfg))
+        for link in links:
+            ra, rb = a.index_of(link[0]), b.index_of(link[1])
+            if ra is None or rb is None:
+                continue
+            reason = _test_link(link, (ra, rb), inside, heights, cfg)
+            marker = Marker(frame, link[0], link[1], _pt(a.feet[ra]), _pt(b.feet[rb]))
+            if not reason and not _moved(last.get(link), marker, cfg):
+                reason = "no motion"
+            if reason:
+                rejected.append((link[0], link[1], reason))
+                continue
+            dropped.append(marker)
+            last[link] = marker
+            cells[_cell(marker.x_a, state.size_a, cfg)] = marker
+    live = (set(a.labels.tolist()), set(b.labels.tolist()))
+    last = {k: m for k, m in last.items() if k[0] in live[0] and k[1] in live[1]}
+    new_state = MarkerState(
+        state.size_a, cells, last, heights[0], heights[1], state.n_dropped + len(dropped)
+    )
+    markers = tuple(sorted(cells.values(), key=lambda m: m.frame))
+    return new_state, MarkerResult(tried, tuple(dropped), tuple(rejected), markers)
+
+
+def _inside(targets: CameraTargets, cfg: MarkerConfig) -> np.ndarray:
+    """(N,) bool: test (a), the target's box is inside its frame by ``inside_margin_px``."""
+    return np.asarray(~targets.touches(cfg.inside_margin_px).any(axis=1), bool)
+
+
+def _pt(xy: np.ndarray) -> tuple[float, float]:
+    return float(xy[0]), float(xy[1])
+
+
+def _moved(previous: Marker | None, marker: Marker, cfg: MarkerConfig) -> bool:
+    """Test (c): no previous marker, or at least one of the feet moved far enough from it."""
+    if previous is None:
+        return True
+    da = np.hypot(marker.x_a[0] - previous.x_a[0], marker.x_a[1] - previous.x_a[1])
+    db = np.hypot(marker.x_b[0] - previous.x_b[0], marker.x_b[1] - previous.x_b[1])
+    return bool(max(da, db) > cfg.marker_min_move_px)
