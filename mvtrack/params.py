@@ -168,6 +168,9 @@ class FovConfig(_Checked):
         200, "events kept per (camera, side) point set (oldest dropped)", 2, 100000
     )
     hough_theta_bins: int = param(180, "Hough angle bins over [0, pi)", 8, 3600)
+    hough_height_frac: float = param(
+        0.1, "a point votes for lines within this fraction of its target's height", 0.0, 10.0
+    )
     hough_rho_step_px: float = param(2.0, "Hough distance bin size in pixels", 0.1, 100.0)
     hough_margin_frac: float = param(
         0.25, "Hough distance range: half the image diagonal times (1 + this)", 0.0, 10.0
