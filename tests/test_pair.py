@@ -1,0 +1,270 @@
+"""The pair step on a synthetic two-camera ground-plane scene with known geometry.
+
+Two pinhole cameras look at a ground plane; walkers cross it on straight paths. Feet are the
+projections of their ground points (plus noise, and 3 % mis-segmented frames whose feet and
+height are wrong); boxes are the images of 0.5 x 0.5 x h m cuboids clipped to the frame. The
+true H_b_from_a is the composition of the two cameras' ground homographies.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+
+import numpy as np
+import pytest
+
+from mvtrack.stages.homography import apply_homography
+from mvtrack.stages.pair import PairConfigs, PairState, pair_init, pair_step, pair_summary
+from mvtrack.stages.targets import CameraTargets
+
+
+@dataclass(frozen=True)
+class Cam:
+    P: np.ndarray  # (3,4)
+    size: tuple[int, int]
+
+    @property
+    def H_img_from_ground(self) -> np.ndarray:
+        return self.P[:, [0, 1, 3]]
+
+
+def look_at(pos, target, f, size, roll_deg=0.0) -> Cam:
+    pos, target = np.asarray(pos, float), np.asarray(target, float)
+    z = target - pos
+    z /= np.linalg.norm(z)
+    x = np.cross(z, [0.0, 0.0, 1.0])
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    r = np.deg2rad(roll_deg)
+    x, y = np.cos(r) * x + np.sin(r) * y, -np.sin(r) * x + np.cos(r) * y
+    R = np.stack([x, y, z])
+    K = np.array([[f, 0, (size[0] - 1) / 2], [0, f, (size[1] - 1) / 2], [0, 0, 1]])
+    return Cam(K @ np.c_[R, -R @ pos], size)
+
+
+def project(cam: Cam, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    h = np.c_[X, np.ones(len(X))] @ cam.P.T
+    return h[:, :2] / h[:, 2:3], h[:, 2]
+
+
+@dataclass(frozen=True)
+class Scenario:
+    cams: tuple[Cam, Cam]
+    region: tuple[float, float, float, float]  # x0, y0, x1, y1 of the walk area (m)
+
+
+def walkers(rng, region, n_frames, rate=0.035, speed=(0.1, 0.16)):
+    """(n_frames, P, 2) ground positions (nan when absent), heights (P,)."""
+    x0, y0, x1, y1 = region
+
+    def edge_point():
+        s = rng.integers(4)
+        u = rng.random()
+        return [
+            (x0, y0 + u * (y1 - y0)),
+            (x1, y0 + u * (y1 - y0)),
+            (x0 + u * (x1 - x0), y0),
+            (x0 + u * (x1 - x0), y1),
+        ][s], s
+
+    tracks = []
+    start = -150
+    for f in range(start, n_frames):
+        if rng.random() < rate or f == start:
+            (p0, s0) = edge_point()
+            p1, s1 = edge_point()
+            while s1 == s0:
+                p1, s1 = edge_point()
+            p0, p1 = np.array(p0), np.array(p1)
+            v = rng.uniform(*speed)
+            n = int(np.linalg.norm(p1 - p0) / v)
+            tracks.append((f, p0, p1, n))
+    pos = np.full((n_frames, len(tracks), 2), np.nan)
+    for j, (f0, p0, p1, n) in enumerate(tracks):
+        for k in range(n + 1):
+            f = f0 + k
+            if 0 <= f < n_frames:
+                pos[f, j] = p0 + (p1 - p0) * k / n
+    keep = ~np.all(np.isnan(pos[:, :, 0]), axis=0)
+    return pos[:, keep], rng.uniform(1.6, 1.9, keep.sum())
+
+
+def observe(  # noqa: PLR0913, PLR0917
+    cam, pos_f, heights, rng, labels_state, next_label, noise_px=0.8, bad_rate=0.0
+):
+    """CameraTargets of one camera, one frame, and the truth person index of each target."""
+    W, H = cam.size
+    rows = []
+    for j in np.flatnonzero(~np.isnan(pos_f[:, 0])):
+        X, Y = pos_f[j]
+        h = heights[j]
+        corners = np.array(
+            [[X + dx, Y + dy, z] for dx in (-0.25, 0.25) for dy in (-0.25, 0.25) for z in (0.0, h)]
+        )
+        pts, depth = project(cam, corners)
+        if np.any(depth <= 0.5):
+            continue
+        lo, hi = pts.min(0), pts.max(0)
+        lo_c, hi_c = np.maximum(lo, [-0.5, -0.5]), np.minimum(hi, [W - 0.5, H - 0.5])
+        if np.any(hi_c - lo_c < 2):
+            continue
+        feet, _ = project(cam, np.array([[X, Y, 0.0]]))
+        head, _ = project(cam, np.array([[X, Y, h]]))
+        hp = float(np.linalg.norm(head[0] - feet[0]))
+        foot = feet[0] + rng.normal(0, noise_px, 2)
+        if rng.random() < bad_rate:  # mis-segmented: legs lost
+            foot = foot + (head[0] - feet[0]) * 0.3
+            hp *= 0.7
+        rows.append(
+            (
+                j,
+                foot,
+                hp * rng.normal(1, 0.01),
+                [lo_c[0], lo_c[1], hi_c[0] - lo_c[0], hi_c[1] - lo_c[1]],
+            )
+        )
+    present = {r[0] for r in rows}
+    for j in list(labels_state):
+        if j not in present:
+            del labels_state[j]
+    labels = []
+    for r in rows:
+        if r[0] not in labels_state:
+            labels_state[r[0]] = next_label[0]
+            next_label[0] += 1
+        labels.append(labels_state[r[0]])
+    t = CameraTargets(
+        labels=np.array(labels, np.int64),
+        feet=np.array([r[1] for r in rows]).reshape(-1, 2),
+        heights_px=np.array([r[2] for r in rows]),
+        boxes_xywh=np.array([r[3] for r in rows]).reshape(-1, 4),
+        size=cam.size,
+    )
+    return t, np.array([r[0] for r in rows], np.int64)
+
+
+A = look_at((10, -4, 8), (10, 10, 0), 260, (320, 240))
+SCENARIOS = {
+    # B looks diagonally across the walk area: its left, right and bottom edges cross it.
+    "default": (A, look_at((22, 22, 9), (12, 12, 0), 300, (320, 240)), (-4, 0, 24, 30), 5, 0.04),
+    "tilted": (
+        A,
+        look_at((22, 22, 9), (12, 12, 0), 300, (320, 240), roll_deg=20),
+        (-4, 0, 24, 30),
+        2,
+        0.04,
+    ),
+    # Walkers stay where only B's bottom edge crosses their area: one observable FOV line.
+    "one_edge": (A, look_at((10, 1, 8), (10, 25, 0), 200, (320, 240)), (4, 5, 16, 28), 2, 0.06),
+}
+
+
+@dataclass
+class Run:
+    state: PairState
+    first_valid: int | None
+    event_points: dict[tuple[str, str], list[np.ndarray]]
+    transfer_px: np.ndarray
+
+
+def _run(name: str, n_frames: int = 600) -> Run:
+    cam_a, cam_b, region, seed, rate = SCENARIOS[name]
+    rng = np.random.default_rng(seed)
+    pos, heights = walkers(rng, region, n_frames, rate=rate)
+    state = pair_init(("a", "b"), (cam_a.size, cam_b.size))
+    labels_a: dict[int, int] = {}
+    labels_b: dict[int, int] = {}
+    next_a, next_b = [1], [1]
+    first_valid = None
+    event_points: dict[tuple[str, str], list[np.ndarray]] = {}
+    for f in range(n_frames):
+        ta, pa = observe(cam_a, pos[f], heights, rng, labels_a, next_a, bad_rate=0.03)
+        tb, pb = observe(cam_b, pos[f], heights, rng, labels_b, next_b, bad_rate=0.03)
+        state, res = pair_step(state, ta, tb, PairConfigs(), f)
+        if res.homography and first_valid is None:
+            first_valid = f
+        for ev in res.events:  # truth: where the event's person stood in the other camera
+            own, person, other = (ta, pa, cam_b) if ev.camera == "a" else (tb, pb, cam_a)
+            j = person[own.index_of(ev.target)]
+            x, _ = project(other, np.array([[*pos[f, j], 0.0]]))
+            event_points.setdefault(("b" if ev.camera == "a" else "a", ev.side), []).append(x[0])
+    ground = pos[~np.isnan(pos[:, :, 0])]
+    xa, _ = project(cam_a, np.c_[ground, np.zeros(len(ground))])
+    xb, _ = project(cam_b, np.c_[ground, np.zeros(len(ground))])
+    seen = np.all((np.c_[xa, xb] > 0) & (np.c_[xa, xb] < [319, 239, 319, 239]), axis=1)
+    transfer = np.full(1, np.inf)
+    if state.homography:
+        H = state.homography.H_b_from_a
+        transfer = np.linalg.norm(apply_homography(H, xa[seen]) - xb[seen], axis=1)
+    return Run(state, first_valid, event_points, transfer)
+
+
+@pytest.fixture(scope="module", params=list(SCENARIOS))
+def run(request: pytest.FixtureRequest) -> Run:
+    return _run(request.param)
+
+
+def test_a_valid_homography_is_learned_and_accurate(run: Run) -> None:
+    assert run.first_valid is not None and run.first_valid < 600
+    assert np.median(run.transfer_px) <= 3.0
+    assert np.percentile(run.transfer_px, 90) <= 8.0
+    est = run.state.homography
+    assert est and est.quality_px < 3.0 and est.inliers.sum() >= 10
+
+
+def test_fov_lines_pass_through_the_true_event_points(run: Run) -> None:
+    """Known weak spot: with 5-10 events and 5+ bystanders per event a line can be wrong.
+
+    Asserted: every line is normalized, and at least half of the lines are within 5 px (median)
+    of the points where the event's own person stood (measured: 3/4 to 4/5 of them).
+    """
+    summary = pair_summary(run.state)
+    assert summary["fov_lines"]
+    errors = {}
+    for line in summary["fov_lines"]:
+        pts = np.array(run.event_points[(line["seen_in"], line["side"])])
+        a, b, c = line["line"]
+        assert abs(a * a + b * b - 1) < 1e-9
+        errors[(line["seen_in"], line["side"], line["events"])] = np.median(
+            np.abs(pts @ [a, b] + c)
+        )
+    good = [e < 5.0 for e in errors.values()]
+    assert np.mean(good) >= 0.5, errors
+
+
+def test_one_edge_scene_has_a_single_fov_line() -> None:
+    result = _run("one_edge")
+    lines = pair_summary(result.state)["fov_lines"]
+    assert [(x["seen_in"], x["side"]) for x in lines] == [("a", "bottom")]
+    assert result.state.homography
+
+
+def test_summary_matches_pairs_json_format(run: Run) -> None:
+    summary = json.loads(json.dumps(pair_summary(run.state)))
+    assert set(summary) == {"cameras", "H", "H_from_frame", "markers", "fov_events", "fov_lines"}
+    assert summary["cameras"] == ["a", "b"]
+    assert np.array(summary["H"]).shape == (3, 3)
+    assert isinstance(summary["H_from_frame"], int) and summary["H_from_frame"] >= run.first_valid
+    assert summary["markers"] == len(run.state.markers.cells) > 0
+    assert summary["fov_events"] == run.state.n_events > 0
+    for line in summary["fov_lines"]:
+        assert set(line) == {"seen_in", "edge_of", "side", "line", "events", "from_frame"}
+        assert {line["seen_in"], line["edge_of"]} == {"a", "b"}
+
+
+def test_empty_cameras_and_size_mismatch() -> None:
+    state = pair_init(("a", "b"), ((320, 240), (640, 480)))
+    state, res = pair_step(
+        state, CameraTargets.empty((320, 240)), CameraTargets.empty((640, 480)), PairConfigs(), 0
+    )
+    assert res.events == () and not res.homography and res.attempt is None
+    assert pair_summary(state)["H"] is None and pair_summary(state)["H_from_frame"] is None
+    with pytest.raises(ValueError, match="size"):
+        pair_step(
+            state,
+            CameraTargets.empty((320, 240)),
+            CameraTargets.empty((320, 240)),
+            PairConfigs(),
+            1,
+        )
