@@ -238,7 +238,7 @@ def track(
         writer = ResultsWriter(out_dir, mask_every=mask_every)
         with progress_bar("tracking") as update:
             summary = run(opened, resolved, rng, [writer], progress=update)
-        writer.close(run_info(opened.spec, resolved, rng, summary))
+        writer.close(run_info(opened.spec, resolved, rng, summary), summary.pairs)
         for warning in opened.warnings[len(opened.spec.warnings):]:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if summary.interrupted:

@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from contextlib import contextmanager
 from dataclasses import dataclass, field
-from typing import Protocol
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -35,11 +35,18 @@ from mvtrack.stages.blobtrack import (
     tracker_init,
 )
 from mvtrack.stages.feet import Feet, target_feet_records
+from mvtrack.stages.pair import (
+    PairConfigs,
+    PairResult,
+    pair_init,
+    pair_step,
+    pair_summary,
+)
 from mvtrack.stages.targets import CameraTargets
 
 __all__ = ["CameraResult", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
 
-STAGES = ("read", "background", "tracker", "feet")
+STAGES = ("read", "background", "tracker", "feet", "pairs")
 """Stage names in timing tables, in pipeline order."""
 
 
@@ -66,12 +73,14 @@ class CameraResult:
 class FrameResult:
     """Everything computed at one clip frame.
 
+    pairs: per overlapping pair (a, b), the pair-learning record (FOV, markers, homography)
     metas: per camera, (N,) int64 consistent label of each target (``targets.labels`` order)
     stage_ms: milliseconds spent per stage (:data:`STAGES`) in this frame, all cameras
     """
 
     index: int
     cameras: Mapping[str, CameraResult]
+    pairs: Mapping[tuple[str, str], PairResult]
     metas: Mapping[str, np.ndarray]
     stage_ms: Mapping[str, float]
 
@@ -128,14 +137,24 @@ class Pipeline:
     inside is a pure ``step(state, inputs, cfg) -> (state, result)``.
     """
 
-    def __init__(self, cameras: Sequence[CameraSpec], params: Params,
-                 backgrounds: Mapping[str, BackgroundState]) -> None:
+    def __init__(self, cameras: Sequence[CameraSpec], overlaps: Sequence[tuple[str, str]],
+                 params: Params, backgrounds: Mapping[str, BackgroundState]) -> None:
         self.cameras = tuple(cameras)
         self.params = params
+        self._pair_cfg = PairConfigs.from_params(params)
         self._states = {
             c.name: _CameraState(backgrounds.get(c.name), tracker_init()) for c in self.cameras
         }
+        size = {c.name: c.size for c in self.cameras}
+        self._pairs = {
+            (a, b): pair_init((a, b), (size[a], size[b])) for a, b in overlaps
+            if a in size and b in size
+        }
         self._metas = _MetaState()
+
+    def pair_summaries(self) -> list[dict[str, Any]]:
+        """One `pairs.json` object per overlapping pair (FORMATS.md), as learned so far."""
+        return [pair_summary(state) for state in self._pairs.values()]
 
     def step(self, index: int, images: Mapping[str, np.ndarray],
              detections: Mapping[str, Detections], read_ms: float = 0.0) -> FrameResult:
@@ -145,8 +164,15 @@ class Pipeline:
         for cam in self.cameras:
             results[cam.name] = self._camera_step(cam, images.get(cam.name),
                                                   detections.get(cam.name), timer)
+        pairs = {}
+        with timer("pairs"):
+            for (a, b), state in self._pairs.items():
+                self._pairs[a, b], pairs[a, b] = pair_step(
+                    state, results[a].targets, results[b].targets, self._pair_cfg, index
+                )
         self._metas, metas = _assign_metas(self._metas, results)
-        return FrameResult(index=index, cameras=results, metas=metas, stage_ms=timer.ms)
+        return FrameResult(index=index, cameras=results, pairs=pairs, metas=metas,
+                           stage_ms=timer.ms)
 
     def _camera_step(self, cam: CameraSpec, image: np.ndarray | None,
                      dets: Detections | None, timer: _Timer) -> CameraResult:
@@ -189,6 +215,7 @@ class RunSummary:
     train_seconds: float = 0.0
     stage_seconds: dict[str, float] = field(default_factory=lambda: dict.fromkeys(STAGES, 0.0))
     interrupted: bool = False
+    pairs: list[dict[str, Any]] = field(default_factory=list)
 
 
 def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, BackgroundState]:
@@ -215,7 +242,8 @@ def run(clip: Clip, params: Params, frames: range, sinks: Sequence[Sink],
     """
     summary = RunSummary()
     start = time.perf_counter()
-    pipeline = Pipeline(clip.spec.cameras, params, train_backgrounds(clip, frames, params))
+    pipeline = Pipeline(clip.spec.cameras, clip.spec.overlaps, params,
+                        train_backgrounds(clip, frames, params))
     summary.train_seconds = time.perf_counter() - start
     try:
         read_start = time.perf_counter()
@@ -232,4 +260,5 @@ def run(clip: Clip, params: Params, frames: range, sinks: Sequence[Sink],
             read_start = time.perf_counter()
     except KeyboardInterrupt:
         summary.interrupted = True
+    summary.pairs = pipeline.pair_summaries()
     return summary
