@@ -1,0 +1,159 @@
+"""Result records -> Rerun archetypes, one small function per layer (no logging here).
+
+Every function takes a record of the pipeline and returns the archetype(s) to log, or None
+when there is nothing to show. Coordinates convert from mvtrack's convention (pixel centres at
+integer coordinates, FORMATS.md) to Rerun's (pixel (0, 0) covers [0, 1] x [0, 1]) by adding
+half a pixel: :func:`to_viewer`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import cv2
+import numpy as np
+import rerun as rr
+
+from mvtrack.viz import paths
+from mvtrack.viz.colors import MASK_COLORS, meta_color
+
+__all__ = [
+    "ImageOptions",
+    "blobs_layer",
+    "distance_layer",
+    "image_layer",
+    "line_strip_in_frame",
+    "mask_context",
+    "masks_layer",
+    "meta_context",
+    "metas_image",
+    "ring_strips",
+    "to_viewer",
+]
+
+_HALF_PX = 0.5  # mvtrack pixel centres are integers; Rerun's are at +0.5
+
+
+@dataclass(frozen=True)
+class ImageOptions:
+    """How camera images are encoded.
+
+    lossless:      log raw pixels (about 40x larger) instead of JPEG
+    jpeg_quality:  JPEG quality 1..100 of frames and backgrounds
+    distance_quality: JPEG quality of the D_B colour map
+    """
+
+    lossless: bool = False
+    jpeg_quality: int = 80
+    distance_quality: int = 70
+
+
+def to_viewer(points_xy: np.ndarray) -> np.ndarray:
+    """(N, 2) float64: mvtrack pixel coordinates -> Rerun 2D view coordinates (+0.5 px)."""
+    return np.asarray(points_xy, np.float64).reshape(-1, 2) + _HALF_PX
+
+
+def image_layer(image: np.ndarray, opts: ImageOptions,
+                draw_order: float = -10.0) -> rr.AsComponents:
+    """The frame or background ((H,W,3) BGR or (H,W) gray uint8) as JPEG or lossless."""
+    if opts.lossless:
+        if image.ndim == 3:
+            return rr.Image(image, color_model="BGR", draw_order=draw_order)
+        return rr.Image(image, color_model="L", draw_order=draw_order)
+    ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, opts.jpeg_quality])
+    if not ok:
+        raise RuntimeError("cv2.imencode failed on a camera image")
+    return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg", draw_order=draw_order)
+
+
+def distance_layer(distance: np.ndarray, opts: ImageOptions) -> rr.AsComponents:
+    """D_B ((H,W) float32 in [0, 1]) through the turbo colour map, JPEG-encoded."""
+    u8 = np.clip(distance * 255.0 + 0.5, 0, 255).astype(np.uint8)
+    coloured = cv2.applyColorMap(u8, cv2.COLORMAP_TURBO)
+    ok, buf = cv2.imencode(".jpg", coloured, [cv2.IMWRITE_JPEG_QUALITY, opts.distance_quality])
+    if not ok:
+        raise RuntimeError("cv2.imencode failed on D_B")
+    return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg", draw_order=-9.0)
+
+
+def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
+                ghost_shadow: np.ndarray) -> rr.SegmentationImage:
+    """One coded (H,W) uint8 image of the four (H,W) bool masks (:data:`paths.MASK_LAYER`)."""
+    codes = np.zeros(mvo.shape, np.uint8)
+    codes[ghost_shadow] = 4
+    codes[fg_shadow] = 3
+    codes[ghost] = 2
+    codes[mvo] = 1
+    return rr.SegmentationImage(codes, opacity=0.6, draw_order=-5.0)
+
+
+def mask_context() -> rr.AnnotationContext:
+    """The legend of the mask layer."""
+    return rr.AnnotationContext(
+        [(0, "background", (0, 0, 0, 0))]
+        + [(k, name, MASK_COLORS[k]) for k, name in paths.MASK_LAYER.items()]
+    )
+
+
+def meta_context(capacity: int) -> rr.AnnotationContext:
+    """Class id m -> :func:`meta_color` (m), for m in 1..capacity (0 is transparent).
+
+    No class labels: they would replace the layers' own labels ("t3 m5") in the views.
+    """
+    return rr.AnnotationContext(
+        [rr.AnnotationInfo(id=0, color=(0, 0, 0, 0))]
+        + [rr.AnnotationInfo(id=m, color=meta_color(m)) for m in range(1, capacity + 1)]
+    )
+
+
+def metas_image(label_image: np.ndarray, labels: np.ndarray, metas: np.ndarray) -> np.ndarray:
+    """(H,W) uint16: each target's pixels hold its meta id (0 elsewhere)."""
+    if len(labels) == 0:
+        return np.zeros(label_image.shape, np.uint16)
+    lut = np.zeros(int(max(labels.max(), label_image.max())) + 1, np.uint16)
+    lut[labels] = metas
+    return lut[label_image]
+
+
+def blobs_layer(boxes_xywh: np.ndarray, is_mvo: np.ndarray) -> rr.Boxes2D:
+    """Candidate blobs' boxes, MVOs red and ghosts blue (values ride along as AnyValues)."""
+    colors = np.where(is_mvo[:, None], MASK_COLORS[1], MASK_COLORS[2]).astype(np.uint8)
+    return rr.Boxes2D(array=boxes_xywh, array_format=rr.Box2DFormat.XYWH, colors=colors,
+                      radii=0.5, draw_order=5.0)
+
+
+def line_strip_in_frame(line: Sequence[float], size: tuple[int, int]) -> np.ndarray | None:
+    """(2, 2) end points of the line a*x + b*y + c = 0 clipped to a (width, height) frame.
+
+    In mvtrack pixel coordinates; None when the line misses the frame.
+    """
+    a, b, c = (float(v) for v in line)
+    w, h = size
+    x0, y0, x1, y1 = -0.5, -0.5, w - 0.5, h - 0.5
+    pts = []
+    if abs(b) > 1e-12:
+        for x in (x0, x1):
+            y = -(a * x + c) / b
+            if y0 <= y <= y1:
+                pts.append((x, y))
+    if abs(a) > 1e-12:
+        for y in (y0, y1):
+            x = -(b * y + c) / a
+            if x0 <= x <= x1:
+                pts.append((x, y))
+    if len(pts) < 2:
+        return None
+    arr = np.array(pts)
+    d = np.linalg.norm(arr[:, None] - arr[None], axis=2)
+    i, j = np.unravel_index(np.argmax(d), d.shape)
+    return arr[[i, j]]
+
+
+def ring_strips(centres_xy: np.ndarray, radius_px: float, n: int = 16) -> list[np.ndarray]:
+    """One closed (n+1, 2) circle per centre: hollow markers (mvtrack coordinates)."""
+    t = np.linspace(0.0, 2.0 * np.pi, n + 1)
+    circle = radius_px * np.c_[np.cos(t), np.sin(t)]
+    return [np.asarray(c, np.float64) + circle for c in np.asarray(centres_xy).reshape(-1, 2)]
+
+

@@ -1,0 +1,235 @@
+"""Pair layers: FOV events and lines, Hough accumulators, markers, projections, homography.
+
+Reads the pair stage's :class:`~mvtrack.stages.pair.PairResult` (duck-typed: the viewer only
+reads its documented fields) and logs through a :class:`~mvtrack.viz.sink.RerunSink`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+import cv2
+import numpy as np
+import rerun as rr
+
+from mvtrack.pipeline import FrameResult
+from mvtrack.stages.targets import SIDES
+from mvtrack.viz import paths
+from mvtrack.viz.log import line_strip_in_frame, ring_strips, to_viewer
+
+if TYPE_CHECKING:
+    from mvtrack.viz.sink import RerunSink
+
+__all__ = ["homographies_to_reference", "hough_image", "hough_mosaic", "log_pair"]
+
+_TILE_W, _TILE_H = 180, 120  # one accumulator in the mosaic, mosaic pixels
+_CUE_RADIUS_PX = 8.0  # hollow ring radius of projected / expected targets, viewer pixels
+
+
+def _valid_H(pr: Any) -> np.ndarray | None:
+    est = getattr(pr, "homography", None)
+    return np.asarray(est.H_b_from_a, np.float64) if est else None
+
+
+def homographies_to_reference(ref: str, pairs: Mapping[tuple[str, str], Any]
+                              ) -> dict[str, np.ndarray]:
+    """Camera -> (3,3) H_ref_from_cam for ``ref`` itself and every camera with a valid H to it.
+
+    Only direct pairs with ``ref`` are used (chains through a third camera are not composed).
+    """
+    out = {ref: np.eye(3)}
+    for (a, b), pr in pairs.items():
+        H = _valid_H(pr)
+        if H is None:
+            continue
+        if a == ref:
+            out[b] = np.linalg.inv(H)
+        elif b == ref:
+            out[a] = H
+    return out
+
+
+def hough_image(accumulator: np.ndarray) -> np.ndarray:
+    """(n_theta, n_rho) votes -> (n_theta, n_rho, 3) uint8 BGR, inferno, scaled to the max."""
+    acc = np.asarray(accumulator, np.float64)
+    top = float(acc.max()) if acc.size else 0.0
+    u8 = np.zeros(acc.shape, np.uint8) if top <= 0 else (255.0 * acc / top).astype(np.uint8)
+    return cv2.applyColorMap(u8, cv2.COLORMAP_INFERNO)
+
+
+def _feet_of(result: FrameResult, cam: str, label: int) -> np.ndarray | None:
+    targets = result.cameras[cam].targets
+    row = targets.index_of(label)
+    return None if row is None else targets.feet[row]
+
+
+def _log_events(sink: RerunSink, name: str, pr: Any, result: FrameResult) -> None:
+    rec = sink.rec
+    by_cam: dict[str, list[tuple[np.ndarray, str]]] = {}
+    for ev in pr.events:
+        sink.event(f"{ev.camera}: FOV event t{ev.target} {ev.kind}s {ev.side} ({name})")
+        xy = _feet_of(result, ev.camera, ev.target)
+        if xy is not None:
+            by_cam.setdefault(ev.camera, []).append((xy, f"{ev.kind} {ev.side}"))
+    for cam, items in by_cam.items():
+        rec.log(paths.camera_layer(cam, "fov_events"), rr.Points2D(
+            to_viewer(np.array([p for p, _ in items])), labels=[t for _, t in items],
+            colors=(255, 255, 255), radii=6.0, draw_order=12.0))
+    for a_label, b_label, ev in pr.associations:
+        sink.event(f"pair {name}: linked t{a_label} ↔ t{b_label} at a {ev.side} event of "
+                   f"{ev.camera}")
+
+
+def _log_links(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
+    now = set(pr.links)
+    before = sink._links.get(key, set())
+    for a_label, b_label in sorted(before - now):
+        sink.event(f"pair {paths.pair_name(*key)}: link t{a_label} ↔ t{b_label} broken",
+                   rr.TextLogLevel.DEBUG)
+    sink._links[key] = now
+    sink.rec.log(paths.pair_layer(*key, "links"), rr.Scalars(float(len(now))))
+
+
+def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult) -> None:
+    """Every learned FOV line, in the camera it is seen in, and re-estimated accumulators."""
+    a, b = key
+    strips: dict[str, list[np.ndarray]] = {a: [], b: []}
+    labels: dict[str, list[str]] = {a: [], b: []}
+    for slot in pr.slots:
+        if slot.line is None:
+            continue
+        size = result.cameras[slot.seen_in].targets.size
+        seg = line_strip_in_frame(slot.line.line, size)
+        if seg is not None:
+            strips[slot.seen_in].append(to_viewer(seg))
+            labels[slot.seen_in].append(f"{slot.edge_of} {slot.side} edge")
+    for cam in (a, b):
+        other = b if cam == a else a
+        sink.rec.log(paths.camera_pair_layer(cam, "fov_lines", other), rr.LineStrips2D(
+            strips[cam], labels=labels[cam], colors=(0, 255, 255), radii=1.5, draw_order=8.0))
+    if pr.reestimated:
+        _log_hough(sink, key, pr)
+        for idx, side in pr.reestimated:
+            sink.event(f"pair {paths.pair_name(a, b)}: FOV line of {key[1 - idx]} {side} "
+                       f"re-estimated in {key[idx]}", rr.TextLogLevel.DEBUG)
+
+
+def hough_mosaic(key: tuple[str, str], slots: Sequence[Any]
+                 ) -> tuple[np.ndarray, np.ndarray, list[str], np.ndarray, list[str]]:
+    """All eight accumulators of a pair as one image, 2 rows (seen in A, in B) x 4 sides.
+
+    Returns the (2*TILE_H, 4*TILE_W, 3) uint8 BGR mosaic, (K, 2) peak positions in mosaic
+    pixels with their labels, and (8, 4) tile boxes (x, y, w, h) with their titles. A tile's
+    rows are theta bins (0..pi, top to bottom), its columns rho bins (left: most negative).
+    """
+    mosaic = np.zeros((2 * _TILE_H, 4 * _TILE_W, 3), np.uint8)
+    peaks: list[np.ndarray] = []
+    peak_text: list[str] = []
+    tiles, titles = [], []
+    by_key = {(key.index(s.seen_in), s.side): s for s in slots}
+    for row, seen_in in enumerate(key):
+        for col, side in enumerate(SIDES):
+            x0, y0 = col * _TILE_W, row * _TILE_H
+            slot = by_key.get((row, side))
+            n = 0 if slot is None else slot.n_events
+            tiles.append((x0, y0, _TILE_W, _TILE_H))
+            titles.append(f"{key[1 - row]} {side} in {seen_in} ({n} ev)")
+            h = None if slot is None else slot.hough
+            if h is None or np.asarray(h.accumulator).size == 0:
+                continue
+            acc = np.asarray(h.accumulator, np.float64)
+            tile = cv2.resize(hough_image(acc), (_TILE_W, _TILE_H),
+                              interpolation=cv2.INTER_NEAREST)
+            mosaic[y0:y0 + _TILE_H, x0:x0 + _TILE_W] = tile
+            pk = np.asarray(h.peaks, np.float64).reshape(-1, 3)
+            thetas, rhos = np.asarray(h.thetas_rad), np.asarray(h.rhos_px)
+            if len(pk) and len(thetas) > 1 and len(rhos) > 1:
+                ti = np.interp(pk[:, 0], thetas, np.arange(len(thetas)))
+                ri = np.interp(pk[:, 1], rhos, np.arange(len(rhos)))
+                peaks.append(np.c_[x0 + (ri + 0.5) * _TILE_W / len(rhos),
+                                   y0 + (ti + 0.5) * _TILE_H / len(thetas)])
+                peak_text += [f"{v:.0f}" for v in pk[:, 2]]
+    pts = np.concatenate(peaks) if peaks else np.zeros((0, 2))
+    return mosaic, pts, peak_text, np.array(tiles, np.float64), titles
+
+
+def _log_hough(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
+    a, b = key
+    mosaic, pts, text, tiles, titles = hough_mosaic(key, pr.slots)
+    sink.rec.log(paths.hough_accumulators(a, b), rr.Image(mosaic, color_model="BGR"))
+    sink.rec.log(paths.hough_peaks(a, b), rr.Points2D(pts, labels=text, colors=(0, 255, 0),
+                                                      radii=2.5))
+    sink.rec.log(paths.hough_tiles(a, b), rr.Boxes2D(
+        array=tiles, array_format=rr.Box2DFormat.XYWH, colors=(200, 200, 200), radii=0.5))
+    sink.rec.log(paths.hough_titles(a, b), rr.Points2D(
+        tiles[:, :2] + [_TILE_W / 2, 2.0], labels=titles, radii=0.1, colors=(230, 230, 230)))
+
+
+def _log_markers(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
+    a, b = key
+    markers = pr.markers.markers
+    xa = np.array([m.x_a for m in markers], np.float64).reshape(-1, 2)
+    xb = np.array([m.x_b for m in markers], np.float64).reshape(-1, 2)
+    for cam, other, pts in ((a, b, xa), (b, a, xb)):
+        sink.rec.log(paths.camera_pair_layer(cam, "markers", other), rr.Points2D(
+            to_viewer(pts), colors=(255, 0, 255), radii=2.0, draw_order=7.0))
+    sink.rec.log(paths.pair_layer(a, b, "markers"), rr.Scalars(float(len(markers))))
+
+
+def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult) -> None:
+    a, b = key
+    name = paths.pair_name(a, b)
+    attempt = pr.attempt
+    if attempt is not None:
+        if attempt:
+            sink.event(f"pair {name}: homography estimated from {attempt.n_markers} markers "
+                       f"({attempt.method}), quality {attempt.quality_px:.2f} px")
+        else:
+            sink.event(f"pair {name}: homography not estimated: {attempt.reason}",
+                       rr.TextLogLevel.DEBUG)
+    H = _valid_H(pr)
+    if H is None:
+        return
+    sink.rec.log(paths.pair_layer(a, b, "quality_px"), rr.Scalars(float(pr.homography.quality_px)))
+    for src, dst, M in ((a, b, H), (b, a, np.linalg.inv(H))):
+        t = result.cameras[src].targets
+        metas = result.metas[src]
+        hom = np.c_[t.feet, np.ones(len(t))] @ M.T
+        ok = hom[:, 2] > 1e-9
+        proj = hom[ok, :2] / hom[ok, 2:3]
+        sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D(
+            [to_viewer(r) for r in ring_strips(proj, _CUE_RADIUS_PX)], class_ids=metas[ok],
+            labels=[f"m{m} from {src}" for m in metas[ok].tolist()], radii=1.0,
+            draw_order=9.0))
+    _transfer_error(sink, key, H, result.index)
+
+
+def _transfer_error(sink: RerunSink, key: tuple[str, str], H: np.ndarray, index: int) -> None:
+    """Median transfer error of H on the true feet of people seen by both cameras."""
+    truth = sink.truth
+    if truth is None:
+        return
+    a, b = key
+    ra = sink._truth_rows.get(a, {}).get(index)
+    rb = sink._truth_rows.get(b, {}).get(index)
+    if ra is None or rb is None:
+        return
+    ta, tb = truth.cameras[a], truth.cameras[b]
+    common, ia, ib = np.intersect1d(ta.person[ra], tb.person[rb], return_indices=True)
+    if len(common) == 0:
+        return
+    from mvtrack.stages.homography import transfer_errors
+
+    err = transfer_errors(H, ta.foot[ra][ia], tb.foot[rb][ib])
+    sink.rec.log(paths.transfer_error(a, b), rr.Scalars(float(np.median(err))))
+
+
+def log_pair(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult) -> None:
+    """Every layer of pair ``key`` = (A, B) at this frame."""
+    name = paths.pair_name(*key)
+    _log_events(sink, name, pr, result)
+    _log_links(sink, key, pr)
+    _log_lines(sink, key, pr, result)
+    _log_markers(sink, key, pr)
+    _log_homography(sink, key, pr, result)

@@ -1,0 +1,70 @@
+"""One viewer run: a clip through the pipeline into one recording, safe against interruption.
+
+    summary = record_run(clip, params, frames, rec, LogOptions())
+
+Used by ``mvtrack-view``, ``--watch`` and the logging benchmark.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from pathlib import Path
+
+import rerun as rr
+import rerun.blueprint as rrb
+
+from mvtrack.io import Clip, read_truth
+from mvtrack.params import Params
+from mvtrack.pipeline import RunSummary, run
+from mvtrack.viz import paths
+from mvtrack.viz.sink import LogOptions, RerunSink
+
+__all__ = ["layout_for", "record_run", "summary_figures"]
+
+
+def layout_for(layout: str, cameras: Sequence[str], pairs: Sequence[tuple[str, str]]
+               ) -> rrb.Blueprint | Path:
+    """A built-in layout by name, or a path to a layout saved from the viewer (.rbl)."""
+    from viewer_blueprints import BLUEPRINTS, build
+
+    if layout not in BLUEPRINTS and (layout.endswith(".rbl") or Path(layout).is_file()):
+        path = Path(layout)
+        if not path.is_file():
+            raise ValueError(f"--layout {layout}: no such file")
+        return path
+    return build(layout, cameras, pairs)
+
+
+def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
+    """The run's figures logged on ``/metrics/summary``: frames, fps, mean foot errors."""
+    total = sum(summary.stage_seconds.values())
+    figures = {"frames": float(summary.frames),
+               "pipeline_fps": summary.frames / total if total > 0 else 0.0}
+    figures |= {f"foot_error_px.{k}": v for k, v in sink.mean_foot_errors().items()}
+    return figures
+
+
+def record_run(clip: Clip, params: Params, frames: range, rec: rr.RecordingStream,
+               options: LogOptions | None = None,
+               progress: Callable[[int, int], None] | None = None) -> tuple[RerunSink, RunSummary]:
+    """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks).
+
+    Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
+    error and re-raised. Either way everything logged so far is flushed, so a saved recording
+    stays readable.
+    """
+    truth = read_truth(clip.spec.root, [c.name for c in clip.spec.cameras]) \
+        if clip.spec.truth_dir else None
+    sink = RerunSink(rec, clip.spec, params, options, truth=truth, frames=frames)
+    try:
+        summary = run(clip, params, frames, [sink], progress=progress)
+    except Exception as exc:
+        rec.log(paths.EVENTS, rr.TextLog(f"run failed: {type(exc).__name__}: {exc}",
+                                         level=rr.TextLogLevel.ERROR))
+        rec.flush()
+        raise
+    if summary.interrupted:
+        sink.warn(f"interrupted after {summary.frames} frames")
+    sink.log_summary(summary_figures(sink, summary))
+    rec.flush()
+    return sink, summary

@@ -1,0 +1,366 @@
+"""The Rerun sink: each :class:`~mvtrack.pipeline.FrameResult` -> archetypes on entity paths.
+
+    rec = new_recording("run 1")
+    rec.save("run.rrd", default_blueprint=blueprint)
+    sink = RerunSink(rec, clip.spec, params, LogOptions())
+    run(clip, params, frames, [sink])
+    sink.close()
+
+Paths come from :mod:`mvtrack.viz.paths`; layers switched off in :class:`LogOptions` are never
+built (building archetypes costs time even when nothing listens). The sink keeps only what
+the event log and the ground map need from one frame to the next (previous links, marker
+counts), never the per-frame records.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+import uuid
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import rerun as rr
+
+from mvtrack.io import ClipSpec, Truth
+from mvtrack.params import Params, dump_params
+from mvtrack.pipeline import CameraResult, FrameResult
+from mvtrack.viz import paths
+from mvtrack.viz.colors import camera_color
+from mvtrack.viz.log import (
+    ImageOptions,
+    blobs_layer,
+    distance_layer,
+    image_layer,
+    mask_context,
+    masks_layer,
+    meta_context,
+    metas_image,
+    to_viewer,
+)
+
+__all__ = ["APP_ID", "LogOptions", "RerunSink", "clip_document", "new_recording"]
+
+APP_ID = "mvtrack"
+
+_FOOT_GATE_HEIGHTS = 0.5  # viewer metric: a foot matches truth within half the person's height
+
+
+@dataclass(frozen=True)
+class LogOptions:
+    """Which layers the sink logs and how.
+
+    images:            JPEG/lossless encoding of frames, backgrounds and D_B
+    background_every:  log the background B every N frames (it changes slowly); 0: never
+    distance, masks, labels, blobs: per-camera layers on/off
+    pairs, ground:     pair layers and the ground map on/off
+    """
+
+    images: ImageOptions = dataclasses.field(default_factory=ImageOptions)
+    background_every: int = 25
+    distance: bool = True
+    masks: bool = True
+    labels: bool = True
+    blobs: bool = True
+    pairs: bool = True
+    ground: bool = True
+
+
+def new_recording(name: str, deterministic: bool = False) -> rr.RecordingStream:
+    """A new recording stream of application ``mvtrack`` named ``name``.
+
+    ``deterministic`` drops the wall-clock timeline (tests compare recordings).
+    """
+    rec = rr.RecordingStream(APP_ID, recording_id=str(uuid.uuid4()))
+    rec.send_recording_name(name)
+    if deterministic:
+        rec.set_log_time_enabled(False)
+    return rec
+
+
+def clip_document(spec: ClipSpec, frames: range) -> str:
+    """Markdown description of a clip and the mvtrack version, for ``/clip``."""
+    from mvtrack.report import package_versions
+
+    lines = [f"# {spec.root.name}", "", f"- path: `{spec.root}`", f"- fps: {spec.fps:g}",
+             f"- frames: {frames.start}..{frames.stop - 1} of {spec.frame_count}",
+             "- overlaps: " + (", ".join(f"{a}–{b}" for a, b in spec.overlaps) or "none"),
+             f"- truth: {'yes' if spec.truth_dir else 'no'}", "", "## Cameras", ""]
+    lines += [f"- **{c.name}**: {c.kind} `{c.source.name}`, {c.size[0]}x{c.size[1]}, "
+              f"{c.modality}, offset {c.offset}" for c in spec.cameras]
+    lines += ["", "## Versions", ""]
+    lines += [f"- {k}: {v}" for k, v in package_versions().items()]
+    return "\n".join(lines) + "\n"
+
+
+def _flat_params(params: Params) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for stage, values in dataclasses.asdict(params).items():
+        for key, value in values.items():
+            out[f"{stage}.{key}"] = value
+    return out
+
+
+def _ground_from(spec: ClipSpec, truth: Truth | None) -> np.ndarray | None:
+    """(3,3) metres-from-reference-pixels of the reference camera, if the truth has it."""
+    if truth is None or not spec.cameras:
+        return None
+    g = truth.image_from_ground.get(spec.cameras[0].name)
+    return None if g is None else np.linalg.inv(g)
+
+
+def _apply(H: np.ndarray, pts: np.ndarray) -> np.ndarray:
+    """(N,2) points through a 3x3 homography; points at or behind infinity are dropped."""
+    pts = np.asarray(pts, np.float64).reshape(-1, 2)
+    hom = np.c_[pts, np.ones(len(pts))] @ H.T
+    keep = hom[:, 2] > 1e-9
+    return hom[keep, :2] / hom[keep, 2:3]
+
+
+def _outline(size: tuple[int, int], n: int = 24) -> np.ndarray:
+    """(4n+1, 2) points around a frame's border (mvtrack pixel coordinates)."""
+    w, h = size
+    x0, y0, x1, y1 = -0.5, -0.5, w - 0.5, h - 0.5
+    t = np.linspace(0.0, 1.0, n, endpoint=False)
+    sides = [
+        np.c_[x0 + t * (x1 - x0), np.full(n, y0)], np.c_[np.full(n, x1), y0 + t * (y1 - y0)],
+        np.c_[x1 - t * (x1 - x0), np.full(n, y1)], np.c_[np.full(n, x0), y1 - t * (y1 - y0)],
+    ]
+    pts = np.concatenate(sides)
+    return np.vstack([pts, pts[:1]])
+
+
+class RerunSink:
+    """A pipeline sink that logs every intermediate of every frame to one recording."""
+
+    def __init__(self, rec: rr.RecordingStream, spec: ClipSpec, params: Params,
+                 options: LogOptions | None = None, truth: Truth | None = None,
+                 frames: range | None = None) -> None:
+        self.rec = rec
+        self.spec = spec
+        self.options = options or LogOptions()
+        self.truth = truth
+        self._meta_capacity = 0
+        self._links: dict[tuple[str, str], set[tuple[int, int]]] = {}
+        self._foot_sums: dict[str, tuple[float, int]] = {}
+        self._truth_rows = self._index_truth(truth)
+        self._ground_from_ref = _ground_from(spec, truth)
+        self.frames_logged = 0
+        self._log_static(params, frames if frames is not None else range(spec.frame_count))
+
+    # ----------------------------------------------------------------------------- static
+
+    def _log_static(self, params: Params, frames: range) -> None:
+        rec = self.rec
+        rec.log(paths.CLIP, rr.TextDocument(clip_document(self.spec, frames),
+                                            media_type=rr.MediaType.MARKDOWN), static=True)
+        rec.log(paths.PARAMS, rr.TextDocument(dump_params(params), media_type="text/plain"),
+                rr.AnyValues(**_flat_params(params)), static=True)
+        for i, cam in enumerate(self.spec.cameras):
+            rec.log(paths.camera_layer(cam.name, "masks"), mask_context(), static=True)
+            style = rr.SeriesLines(colors=camera_color(i), names=cam.name, widths=2.0)
+            rec.log(paths.targets_metric(cam.name), style, static=True)
+            rec.log(paths.foot_error(cam.name), style, static=True)
+        self._grow_metas(64)
+        for warning in self.spec.warnings:
+            self.warn(warning)
+
+    def _grow_metas(self, need: int) -> None:
+        if need <= self._meta_capacity:
+            return
+        cap = max(64, self._meta_capacity)
+        while cap < need:
+            cap *= 2
+        ctx = meta_context(cap)
+        self.rec.log(paths.CAMERAS, ctx, static=True)
+        self.rec.log(paths.GROUND, ctx, static=True)
+        self._meta_capacity = cap
+
+    @staticmethod
+    def _index_truth(truth: Truth | None) -> dict[str, dict[int, np.ndarray]]:
+        if truth is None:
+            return {}
+        out: dict[str, dict[int, np.ndarray]] = {}
+        for name, ct in truth.cameras.items():
+            order = np.argsort(ct.frame, kind="stable")
+            cuts = np.flatnonzero(np.diff(ct.frame[order])) + 1
+            out[name] = {int(ct.frame[g[0]]): g for g in np.split(order, cuts) if len(g)}
+        return out
+
+    # ----------------------------------------------------------------------------- text
+
+    def warn(self, message: str) -> None:
+        """A warning in the event log."""
+        self.rec.log(paths.EVENTS, rr.TextLog(message, level=rr.TextLogLevel.WARN))
+
+    def event(self, message: str, level: Any = rr.TextLogLevel.INFO) -> None:
+        """One line in the event log at the current time."""
+        self.rec.log(paths.EVENTS, rr.TextLog(message, level=level))
+
+    # ----------------------------------------------------------------------------- frames
+
+    def on_frame(self, result: FrameResult) -> None:
+        start = time.perf_counter()
+        rec = self.rec
+        rec.set_time(paths.FRAME_TIMELINE, sequence=result.index)
+        rec.set_time(paths.TIME_TIMELINE, duration=result.index / self.spec.fps)
+        top = max((int(m.max()) for m in result.metas.values() if len(m)), default=0)
+        self._grow_metas(top)
+        for name, cam in result.cameras.items():
+            self._log_camera(name, cam, result.metas[name], result.index)
+            rec.log(paths.targets_metric(name), rr.Scalars(float(len(cam.targets))))
+            self._foot_error(name, cam, result.index)
+        for stage, ms in result.stage_ms.items():
+            rec.log(paths.stage_ms(stage), rr.Scalars(ms))
+        pairs = result.pairs
+        if self.options.pairs:
+            for key, pr in pairs.items():
+                self._log_pair(key, pr, result)
+        if self.options.ground:
+            self._log_ground(result, pairs)
+        self.frames_logged += 1
+        rec.log(paths.log_ms(), rr.Scalars(1000.0 * (time.perf_counter() - start)))
+
+    def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray, index: int) -> None:
+        rec, opts = self.rec, self.options
+        if cam.image is not None:
+            rec.log(paths.camera_layer(name, "image"), image_layer(cam.image, opts.images))
+        bg = cam.background
+        if bg is not None:
+            every = opts.background_every
+            if every > 0 and bg.frame_index % every == 0:
+                rec.log(paths.camera_layer(name, "background"),
+                        image_layer(bg.background_bgr, opts.images, draw_order=-20.0))
+            if opts.distance:
+                rec.log(paths.camera_layer(name, "distance"), distance_layer(bg.distance,
+                                                                            opts.images))
+            if opts.masks:
+                rec.log(paths.camera_layer(name, "masks"),
+                        masks_layer(bg.mvo_mask, bg.ghost_mask, bg.fg_shadow, bg.ghost_shadow))
+            if opts.blobs:
+                self._log_blobs(name, cam)
+        tracks = cam.tracks
+        if opts.labels and tracks.label_image is not None:
+            rec.log(paths.camera_layer(name, "labels"), rr.SegmentationImage(
+                metas_image(tracks.label_image, tracks.labels, metas), opacity=0.45,
+                draw_order=-4.0))
+        targets = cam.targets
+        text = [f"t{t} m{m}" for t, m in zip(targets.labels.tolist(), metas.tolist(), strict=True)]
+        boxes = targets.boxes_xywh.copy()
+        boxes[:, :2] += 0.5
+        rec.log(paths.camera_layer(name, "targets"), rr.Boxes2D(
+            array=boxes, array_format=rr.Box2DFormat.XYWH, class_ids=metas, labels=text,
+            radii=1.0, draw_order=10.0))
+        rec.log(paths.camera_layer(name, "feet"), rr.Points2D(
+            to_viewer(targets.feet), class_ids=metas, radii=3.0, draw_order=11.0))
+        self._tracker_events(name, cam)
+
+    def _log_blobs(self, name: str, cam: CameraResult) -> None:
+        assert cam.background is not None
+        blobs = cam.background.blobs
+        boxes = blobs.box_xywh.copy()
+        boxes[:, :2] += 0.5
+        self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo),
+                     rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
+                                  max_distance=blobs.max_distance.astype(np.float64),
+                                  mean_flow_px=blobs.mean_flow_px.astype(np.float64),
+                                  is_mvo=blobs.is_mvo.astype(bool)))
+
+    def _tracker_events(self, name: str, cam: CameraResult) -> None:
+        t = cam.tracks
+        debug = rr.TextLogLevel.DEBUG
+        if t.births:
+            self.event(f"{name}: new targets {', '.join(f't{b}' for b in t.births)}", debug)
+        for parent, kids in t.splits:
+            self.event(f"{name}: t{parent} split into {', '.join(f't{k}' for k in kids)}", debug)
+        for _, labels in t.merges:
+            self.event(f"{name}: merged {' + '.join(f't{k}' for k in labels)}", debug)
+        if t.retirements:
+            self.event(f"{name}: retired {', '.join(f't{r}' for r in t.retirements)}", debug)
+
+    def _foot_error(self, name: str, cam: CameraResult, index: int) -> None:
+        rows = self._truth_rows.get(name, {}).get(index)
+        if rows is None or self.truth is None or len(cam.targets) == 0:
+            return
+        from mvtrack.evaluate.metrics import frame_matches
+
+        ct = self.truth.cameras[name]
+        i, j = frame_matches(cam.targets.feet, ct.foot[rows], ct.box_xywh[rows, 3],
+                             _FOOT_GATE_HEIGHTS)
+        if len(i):
+            err = np.linalg.norm(cam.targets.feet[i] - ct.foot[rows][j], axis=1)
+            self.rec.log(paths.foot_error(name), rr.Scalars(float(err.mean())))
+            total, count = self._foot_sums.get(name, (0.0, 0))
+            self._foot_sums[name] = (total + float(err.sum()), count + len(err))
+
+    def mean_foot_errors(self) -> dict[str, float]:
+        """Per camera, the mean foot error (px) over every matched target so far (truth only)."""
+        return {k: total / count for k, (total, count) in self._foot_sums.items() if count}
+
+    # ----------------------------------------------------------------------------- pairs
+
+    def _log_pair(self, key: tuple[str, str], pr: Any, result: FrameResult) -> None:
+        from mvtrack.viz.pairs import log_pair
+
+        log_pair(self, key, pr, result)
+
+    def _log_ground(self, result: FrameResult, pairs: Mapping[tuple[str, str], Any]) -> None:
+        from mvtrack.viz.pairs import homographies_to_reference
+
+        ref = self.spec.cameras[0].name if self.spec.cameras else None
+        if ref is None:
+            return
+        to_ref = homographies_to_reference(ref, pairs)
+        to_out = self._ground_from_ref
+        pts, ids = [], []
+        for name, cam in result.cameras.items():
+            H = to_ref.get(name)
+            if H is None:
+                continue
+            if to_out is not None:
+                H = to_out @ H
+            size = cam.targets.size
+            outline = _apply(H, _outline(size))
+            if len(outline) > 1:
+                width = 0.5 if to_out is None else 0.03
+                self.rec.log(paths.ground_fov(name), rr.LineStrips2D(
+                    [self._g(outline)], radii=width, labels=[name]))
+            feet = _apply(H, cam.targets.feet)
+            if len(feet) == len(cam.targets):
+                pts.append(feet)
+                ids.append(result.metas[name])
+        allpts = np.concatenate(pts) if pts else np.zeros((0, 2))
+        allids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
+        radius = 4.0 if to_out is None else 0.15
+        self.rec.log(paths.GROUND_TARGETS, rr.Points2D(self._g(allpts), class_ids=allids,
+                                                       radii=radius,
+                                                       labels=[f"m{m}" for m in allids.tolist()]))
+        self._ground_truth(result.index)
+
+    def _g(self, pts: np.ndarray) -> np.ndarray:
+        """Ground coordinates for the view: reference pixels get +0.5 px, metres are as is."""
+        return to_viewer(pts) if self._ground_from_ref is None else np.asarray(pts)
+
+    def _ground_truth(self, index: int) -> None:
+        world = self.truth.world if self.truth is not None else None
+        if world is None or self._ground_from_ref is None:
+            return
+        rows = np.flatnonzero(world.frame == index)
+        self.rec.log(paths.GROUND_TRUTH, rr.Points2D(
+            world.xy[rows], radii=0.08, colors=(255, 255, 255),
+            labels=[f"p{p}" for p in world.person[rows].tolist()]))
+
+    # ----------------------------------------------------------------------------- end
+
+    def log_summary(self, values: Mapping[str, float]) -> None:
+        """A run's summary figures (``--watch``), static on ``/metrics/summary``."""
+        fields: dict[str, Any] = dict(values)
+        self.rec.log(paths.SUMMARY, rr.AnyValues(**fields), static=True)
+
+    def close(self) -> None:
+        """Flush everything logged so far (the caller disconnects or ends the stream)."""
+        self.rec.flush()
+
+
