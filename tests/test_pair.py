@@ -268,3 +268,29 @@ def test_empty_cameras_and_size_mismatch() -> None:
             PairConfigs(),
             1,
         )
+
+
+def _two_walkers(frame: int) -> tuple[CameraTargets, CameraTargets]:
+    """A and B each see two targets inside the frame, moving 3 px per frame."""
+    feet = np.array([[60.0 + 3 * frame, 120.0], [200.0, 60.0 + 2 * frame]])
+    boxes = np.c_[feet - [10, 60], np.full((2, 2), [20, 60])]
+    a = CameraTargets(np.array([1, 2]), feet, np.full(2, 60.0), boxes, (320, 240))
+    b = CameraTargets(np.array([7, 8]), feet + 5, np.full(2, 60.0), boxes + [5, 5, 0, 0],
+                      (320, 240))
+    return a, b
+
+
+def test_external_links_drive_markers_and_count_as_linked() -> None:
+    state = pair_init(("a", "b"), ((320, 240), (320, 240)))
+    for f in range(30):
+        a, b = _two_walkers(f)
+        state, res = pair_step(state, a, b, PairConfigs(), f, links=[(2, 8)])
+        assert res.links == ((2, 8),)
+        assert all((m.a_label, m.b_label) == (2, 8) for m in res.markers.markers)
+    assert len(state.markers.cells) >= 3
+    none_state = pair_init(("a", "b"), ((320, 240), (320, 240)))
+    for f in range(30):
+        a, b = _two_walkers(f)
+        none_state, res = pair_step(none_state, a, b, PairConfigs(), f, links=[])
+        assert res.links == () and res.markers.dropped == ()
+    assert none_state.markers.n_dropped == 0

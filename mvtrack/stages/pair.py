@@ -15,6 +15,7 @@ Nothing here uses calibration or ground truth.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -83,6 +84,13 @@ class PairLinks:
         since = {k: v for k, v in self.since.items() if k in b_of_a.items()}
         since[(a_label, b_label)] = frame
         return PairLinks(b_of_a, since)
+
+    @classmethod
+    def of(cls, pairs: Sequence[tuple[int, int]], earlier: PairLinks, frame: int) -> PairLinks:
+        """Exactly ``pairs`` (decided outside); ``since`` kept from ``earlier``, else ``frame``."""
+        b_of_a = {int(a): int(b) for a, b in pairs}
+        since = {k: earlier.since.get(k, frame) for k in b_of_a.items()}
+        return cls(b_of_a, since)
 
     def prune(self, a_labels: set[int], b_labels: set[int]) -> PairLinks:
         """A copy without links whose A or B target is absent (retired)."""
@@ -235,16 +243,27 @@ def pair_step(
     b: CameraTargets,
     cfg: PairConfigs,
     frame: int,
+    *,
+    links: Sequence[tuple[int, int]] | None = None,
 ) -> tuple[PairState, PairResult]:
-    """Advance pair (A, B) by one frame with both cameras' targets of clip frame ``frame``."""
+    """Advance pair (A, B) by one frame with both cameras' targets of clip frame ``frame``.
+
+    ``links``: the (A label, B label) pairs currently sharing a meta-target, decided outside
+    (the multi-camera stage). When given, markers come from exactly these links and FOV
+    association treats them as already linked; the associations it proposes this frame are in
+    :attr:`PairResult.associations` for the caller to act on. When None, the pair keeps its own
+    :class:`PairLinks` from its FOV associations (a pair-level meta record).
+    """
     for cam, size, name in zip((a, b), state.sizes, state.names, strict=True):
         if tuple(cam.size) != tuple(size):
             raise ValueError(f"camera {name}: targets have size {cam.size}, pair expects {size}")
     cams = (a, b)
     slots, events, changed, touches = _learn_lines(state, cams, cfg.fov, frame)
-    links = state.links.prune(set(a.labels.tolist()), set(b.labels.tolist()))
-    links, made = _associate(events, slots, links, cams, cfg.fov)
-    markers, marker_result = marker_step(state.markers, links.pairs(), a, b, cfg.markers, frame)
+    base = state.links if links is None else PairLinks.of(links, state.links, frame)
+    base = base.prune(set(a.labels.tolist()), set(b.labels.tolist()))
+    new_links, made = _associate(events, slots, base, cams, cfg.fov)
+    marker_links = new_links.pairs() if links is None else base.pairs()
+    markers, marker_result = marker_step(state.markers, marker_links, a, b, cfg.markers, frame)
     homography, attempt = _maybe_fit(state, markers, cfg.homography, frame)
     fitted = attempt is not None
     new_state = PairState(
@@ -252,7 +271,7 @@ def pair_step(
         sizes=state.sizes,
         touches=touches,
         slots=slots,
-        links=links,
+        links=new_links,
         markers=markers,
         homography=homography,
         fit_markers=len(markers.cells) if fitted else state.fit_markers,
@@ -266,7 +285,7 @@ def pair_step(
         slots=tuple(slots.values()),
         reestimated=tuple(changed),
         associations=tuple(made),
-        links=links.pairs(),
+        links=new_links.pairs(),
         markers=marker_result,
         homography=homography,
         attempt=attempt,
