@@ -96,7 +96,7 @@ def parse_size(text: str) -> tuple[int, int]:
 
 @app.command()
 def generate(
-    out_dir: Annotated[Path, typer.Argument(help="New clip directory to write.")],
+    out_dir: Annotated[Path | None, typer.Argument(help="New clip directory to write.")] = None,
     scenario: Annotated[str, typer.Option(help="Scenario name (see --list).")] = "pair",
     seed: Annotated[int, typer.Option(help="Random seed: same seed, same clip.")] = 0,
     frames: Annotated[int, typer.Option(help="Number of frames.")] = 600,
@@ -117,6 +117,8 @@ def generate(
         for name, sc in SCENARIOS.items():
             out.print(f"[bold]{name:10}[/] {sc.summary}", highlight=False)
         return
+    if out_dir is None:
+        raise fail("missing OUT_DIR: the clip directory to write")
     if scenario not in SCENARIOS:
         raise fail(f"--scenario {scenario!r}: expected one of {', '.join(SCENARIOS)}")
     if frames < 1:
