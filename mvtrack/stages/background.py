@@ -27,6 +27,9 @@ Choices beyond the thesis (each with its config field):
   equivalent integer form (e.g. α ≤ I_V/B_V ⟺ I_V ≥ ⌈α·B_V⌉), with the bounds precomputed once per
   background. ``distance`` is the 8-bit D_B / 255 (hue: circular 8-bit difference × 2, so hue has
   the 1.4° resolution of OpenCV's 8-bit hue).
+- **Average flow.** T_AOF is compared with the magnitude of the blob's *mean flow vector*: the
+  mean of per-pixel magnitudes is biased up by noise (0.2-0.45 px/frame on a static textured
+  ghost in the tests), while the mean vector averages the noise out and keeps a walker's motion.
 - **Flow only where it matters.** Mean flow per blob comes from DIS optical flow (OpenCV,
   ultrafast preset) on frames downscaled so their width is at most ``flow_max_width_px`` (1.2 ms
   at 384×288, against 140 ms for full-frame Farneback); it is skipped when there are no blobs.
@@ -92,15 +95,15 @@ class BackgroundState:
                  foreground-shadow pixels replaced by the background of their time;
                  (H,W,3) uint8 BGR or (H,W) uint8 gray
     model:       the background B for the next frame and its derived planes
-    prev_flow_gray: (h,w) uint8 previous frame's V plane at flow resolution; None before the
-                 first step
+    recent_v:    up to ``flow_gap_frames`` previous frames' V planes at flow resolution, (h,w)
+                 uint8, oldest first; empty before the first step
     frame_index: number of frames processed by :func:`background_step` so far
     """
 
     modality: str
     fifo: tuple[np.ndarray, ...]
     model: _Model
-    prev_flow_gray: np.ndarray | None
+    recent_v: tuple[np.ndarray, ...]
     frame_index: int
 
     @property
@@ -116,7 +119,8 @@ class BlobTable:
     label:        (K,) int32, the blob's value in ``BackgroundResult.blob_labels`` (1..K)
     area_px:      (K,) int64, pixel count
     max_distance: (K,) float32, largest D_B in the blob, in [0, 1]
-    mean_flow_px: (K,) float64, mean optical-flow magnitude in px/frame (NaN: no previous frame)
+    mean_flow_px: (K,) float64, magnitude of the blob's mean optical-flow vector, px/frame
+                  (NaN: no previous frame)
     area_ok, strong_ok, flow_ok: (K,) bool, the three MVO tests (flow_ok is True when NaN)
     is_mvo:       (K,) bool, all three tests passed
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
@@ -191,8 +195,9 @@ def _as_frame(frame: np.ndarray, modality: str) -> np.ndarray:
         return cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if modality == "gray" else frame
     if frame.ndim == 2 and modality == "gray":
         return frame
-    raise ValueError(f"background: a {modality} frame must be (H,W,3) or gray (H,W), got "
-                     f"shape {frame.shape}")
+    raise ValueError(
+        f"background: a {modality} frame must be (H,W,3) or gray (H,W), got shape {frame.shape}"
+    )
 
 
 def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
@@ -206,8 +211,16 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         colour = v > _u8_floor(cfg.colour_min_value)
         hue_ok = s > _u8_floor(cfg.hue_min_sat)
     lo_lut, hi_lut = _ratio_luts(cfg.shadow_alpha, cfg.shadow_beta)
-    return _Model(bgr=bgr, h=h, s=s, v=v, ratio_lo=cv2.LUT(v, lo_lut),
-                  ratio_hi=cv2.LUT(v, hi_lut), colour=colour, hue_ok=hue_ok)
+    return _Model(
+        bgr=bgr,
+        h=h,
+        s=s,
+        v=v,
+        ratio_lo=cv2.LUT(v, lo_lut),
+        ratio_hi=cv2.LUT(v, hi_lut),
+        colour=colour,
+        hue_ok=hue_ok,
+    )
 
 
 @lru_cache(maxsize=8)
@@ -257,8 +270,7 @@ def train_background(
             raise ValueError(f"train_background: frame {i} is {f.shape}, frame 0 {used[0].shape}")
     model = _model(lower_median(used), modality, cfg)
     fifo = (model.bgr,) * _fifo_len(cfg)
-    return BackgroundState(modality=modality, fifo=fifo, model=model, prev_flow_gray=None,
-                           frame_index=0)
+    return BackgroundState(modality=modality, fifo=fifo, model=model, recent_v=(), frame_index=0)
 
 
 def _hsv_planes(frame: np.ndarray, modality: str) -> tuple[np.ndarray | None, ...]:
@@ -275,8 +287,14 @@ def _distance_and_shadow(
     assert v is not None
     dist = cv2.absdiff(v, model.v)
     ratio_ok = (v >= model.ratio_lo) & (v <= model.ratio_hi)
-    if (h is None or s is None or model.h is None or model.s is None or model.colour is None
-            or model.hue_ok is None):
+    if (
+        h is None
+        or s is None
+        or model.h is None
+        or model.s is None
+        or model.colour is None
+        or model.hue_ok is None
+    ):
         shadow = ratio_ok if cfg.gray_shadows else np.zeros_like(ratio_ok)
         return dist, shadow
     colour = model.colour & (v > _u8_floor(cfg.colour_min_value))  # S and H mean something
@@ -320,36 +338,50 @@ def _mvo_labels(
 
 
 def _blob_stats(
-    pixels: _BlobPixels, stats: np.ndarray, dist8: np.ndarray, flow_mag: np.ndarray | None,
+    pixels: _BlobPixels,
+    stats: np.ndarray,
+    dist8: np.ndarray,
+    flow: np.ndarray | None,
     flow_factor: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per blob (labels 1..K): max D_B (uint8) and mean flow magnitude (px/frame, NaN: none)."""
+    """Per blob (labels 1..K): max D_B (uint8) and the magnitude of the mean flow vector
+    (px/frame, NaN: no flow)."""
     k = stats.shape[0] - 1
     idx, lab = pixels.index, pixels.label
     max8 = np.zeros(k + 1, np.uint8)
     np.maximum.at(max8, lab, dist8.ravel()[idx])
-    if flow_mag is None:
+    if flow is None:
         return max8[1:], np.full(k, np.nan)
     width = dist8.shape[1]
-    rows = np.minimum(idx // width // flow_factor, flow_mag.shape[0] - 1)
-    cols = np.minimum(idx % width // flow_factor, flow_mag.shape[1] - 1)
-    total = np.bincount(lab, weights=flow_mag[rows, cols], minlength=k + 1)
-    return max8[1:], total[1:] / np.maximum(stats[1:, cv2.CC_STAT_AREA], 1)
+    rows = np.minimum(idx // width // flow_factor, flow.shape[0] - 1)
+    cols = np.minimum(idx % width // flow_factor, flow.shape[1] - 1)
+    vectors = flow[rows, cols]  # (P, 2)
+    sum_x = np.bincount(lab, weights=vectors[:, 0], minlength=k + 1)[1:]
+    sum_y = np.bincount(lab, weights=vectors[:, 1], minlength=k + 1)[1:]
+    return max8[1:], np.hypot(sum_x, sum_y) / np.maximum(stats[1:, cv2.CC_STAT_AREA], 1)
 
 
-def _flow_magnitude(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
-    """Dense DIS flow magnitude from prev to cur, in full-resolution px/frame, (h,w) float32."""
+def _flow(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
+    """Dense DIS flow of the current frame's pixels, (h,w,2) float32 [dx, dy] in full-resolution
+    px/frame: the pixel at x now was at x - flow(x) in ``prev``.
+
+    Computed backwards (cur -> prev) so that it is indexed by *current* pixels: forward flow at
+    a walker's current position would sample the background it has just covered (zero flow)."""
     dis = cv2.DISOpticalFlow.create(cv2.DISOPTICAL_FLOW_PRESET_ULTRAFAST)
-    flow = np.asarray(dis.calc(prev, cur, None))  # type: ignore[call-overload]
-    return cv2.magnitude(flow[..., 0], flow[..., 1]) * np.float32(factor)
+    back = np.asarray(dis.calc(cur, prev, None))  # type: ignore[call-overload]
+    return back * np.float32(-factor)
 
 
 def _blob_table(
-    pixels: _BlobPixels, stats: np.ndarray, dist8: np.ndarray, flow_mag: np.ndarray | None,
-    flow_factor: int, cfg: BackgroundConfig,
+    pixels: _BlobPixels,
+    stats: np.ndarray,
+    dist8: np.ndarray,
+    flow: np.ndarray | None,
+    flow_factor: int,
+    cfg: BackgroundConfig,
 ) -> BlobTable:
     k = stats.shape[0] - 1
-    max8, mean_flow = _blob_stats(pixels, stats, dist8, flow_mag, flow_factor)
+    max8, mean_flow = _blob_stats(pixels, stats, dist8, flow, flow_factor)
     area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
     area_ok = area > cfg.min_area_px
     strong_ok = max8 > _u8_floor(cfg.t_high)
@@ -360,10 +392,16 @@ def _blob_table(
     box = stats[1:, :4].astype(np.float64)
     box[:, :2] -= 0.5
     return BlobTable(
-        label=np.arange(1, k + 1, dtype=np.int32), area_px=area,
-        max_distance=max8.astype(np.float32) / np.float32(255.0), mean_flow_px=mean_flow,
-        area_ok=area_ok, strong_ok=strong_ok, flow_ok=flow_ok, is_mvo=is_mvo,
-        mvo_label=mvo_label, box_xywh=box,
+        label=np.arange(1, k + 1, dtype=np.int32),
+        area_px=area,
+        max_distance=max8.astype(np.float32) / np.float32(255.0),
+        mean_flow_px=mean_flow,
+        area_ok=area_ok,
+        strong_ok=strong_ok,
+        flow_ok=flow_ok,
+        is_mvo=is_mvo,
+        mvo_label=mvo_label,
+        box_xywh=box,
     )
 
 
@@ -410,11 +448,14 @@ def background_step(
     """Process one frame (BGR (H,W,3) or gray (H,W) uint8, same size as training)."""
     frame = _as_frame(frame, state.modality)
     if frame.shape != state.model.bgr.shape:
-        raise ValueError(f"background_step: frame {frame.shape} but background "
-                         f"{state.model.bgr.shape}")
+        raise ValueError(
+            f"background_step: frame {frame.shape} but background {state.model.bgr.shape}"
+        )
     if len(state.fifo) != _fifo_len(cfg):
-        raise ValueError(f"background_step: FIFO holds {len(state.fifo)} frames but the config "
-                         f"needs {_fifo_len(cfg)}: train with the same BackgroundConfig")
+        raise ValueError(
+            f"background_step: FIFO holds {len(state.fifo)} frames but the config "
+            f"needs {_fifo_len(cfg)}: train with the same BackgroundConfig"
+        )
     planes = _hsv_planes(frame, state.modality)
     dist8, shadow = _distance_and_shadow(planes, state.model, cfg)
     candidate = _candidates(dist8, shadow, cfg)
@@ -424,22 +465,34 @@ def background_step(
     assert planes[2] is not None
     flow_gray = _flow_gray(planes[2], cfg)
     factor = frame.shape[1] // flow_gray.shape[1]
-    flow_mag = None
-    if stats.shape[0] > 1 and state.prev_flow_gray is not None:
-        flow_mag = _flow_magnitude(state.prev_flow_gray, flow_gray, factor)
+    flow = None
+    if stats.shape[0] > 1 and state.recent_v:
+        gap = len(state.recent_v)
+        flow = _flow(state.recent_v[0], flow_gray, factor) / np.float32(gap)
     pixels = _blob_pixels(candidate, blob_labels)
-    blobs = _blob_table(pixels, stats, dist8, flow_mag, factor, cfg)
+    blobs = _blob_table(pixels, stats, dist8, flow, factor, cfg)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     fg_shadow = _split_shadows(shadow, mvo, mvo_index)
     fifo, model = _update(state, frame, mvo | fg_shadow, cfg)
     result = BackgroundResult(
-        frame_index=state.frame_index, background_bgr=state.model.bgr,
-        distance=np.multiply(dist8, np.float32(1.0 / 255.0), dtype=np.float32), shadow=shadow,
-        candidate=candidate, blob_labels=blob_labels, mvo_labels=mvo_labels,
-        ghost_mask=candidate & ~mvo, fg_shadow=fg_shadow,
-        ghost_shadow=shadow & ~fg_shadow, blobs=blobs,
+        frame_index=state.frame_index,
+        background_bgr=state.model.bgr,
+        distance=np.multiply(dist8, np.float32(1.0 / 255.0), dtype=np.float32),
+        shadow=shadow,
+        candidate=candidate,
+        blob_labels=blob_labels,
+        mvo_labels=mvo_labels,
+        ghost_mask=candidate & ~mvo,
+        fg_shadow=fg_shadow,
+        ghost_shadow=shadow & ~fg_shadow,
+        blobs=blobs,
     )
-    new_state = BackgroundState(modality=state.modality, fifo=fifo, model=model,
-                                prev_flow_gray=flow_gray, frame_index=state.frame_index + 1)
+    new_state = BackgroundState(
+        modality=state.modality,
+        fifo=fifo,
+        model=model,
+        recent_v=(*state.recent_v, flow_gray)[-cfg.flow_gap_frames :],
+        frame_index=state.frame_index + 1,
+    )
     return new_state, result
