@@ -79,7 +79,7 @@ def view(
     port: Annotated[int, typer.Option(help="gRPC port of the viewer.")] = 9876,
     web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
     lossless: Annotated[bool, typer.Option(help="Log frames losslessly (not JPEG).")] = False,
-    jpeg_quality: Annotated[int, typer.Option(help="JPEG quality of frames.")] = 80,
+    jpeg_quality: Annotated[int, typer.Option(help="JPEG quality of frames.")] = 75,
     background_every: Annotated[int, typer.Option(
         help="Log the background every N frames (0: never).")] = 25,
     watch: Annotated[Path | None, typer.Option(
@@ -95,11 +95,15 @@ def view(
     if screenshot is not None and save is None:
         raise fail("--screenshot needs --save FILE.rrd")
     if watch is not None:
-        from mvtrack.viz.watch import watch_loop
+        from mvtrack.viz.watch import WatchConfig, watch_loop
 
+        config = WatchConfig(target=target, options=options, layout=layout,
+                             overrides=tuple(set_ or ()))
         with user_errors():
-            watch_loop(clip, watch, frames=frames, cameras=cameras, overrides=set_ or [],
-                       target=target, options=options, layout=layout)
+            try:
+                watch_loop(clip, watch, frames, cameras, config, echo=out.print)
+            except ValueError as exc:
+                raise fail(str(exc)) from None
         return
     summary = _run_once(clip, params, set_, frames, cameras, layout, target, options)
     if screenshot is not None and save is not None:

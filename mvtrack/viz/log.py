@@ -41,11 +41,11 @@ class ImageOptions:
 
     lossless:      log raw pixels (about 40x larger) instead of JPEG
     jpeg_quality:  JPEG quality 1..100 of frames and backgrounds
-    distance_quality: JPEG quality of the D_B colour map
+    distance_quality: JPEG quality of D_B
     """
 
     lossless: bool = False
-    jpeg_quality: int = 80
+    jpeg_quality: int = 75
     distance_quality: int = 70
 
 
@@ -68,10 +68,13 @@ def image_layer(image: np.ndarray, opts: ImageOptions,
 
 
 def distance_layer(distance: np.ndarray, opts: ImageOptions) -> rr.AsComponents:
-    """D_B ((H,W) float32 in [0, 1]) through the turbo colour map, JPEG-encoded."""
-    u8 = np.clip(distance * 255.0 + 0.5, 0, 255).astype(np.uint8)
-    coloured = cv2.applyColorMap(u8, cv2.COLORMAP_TURBO)
-    ok, buf = cv2.imencode(".jpg", coloured, [cv2.IMWRITE_JPEG_QUALITY, opts.distance_quality])
+    """D_B ((H,W) float32 in [0, 1]) as a gray JPEG: black 0, white 1.
+
+    Gray, not a colour map: a turbo-coloured JPEG is 3x larger (60 vs 19 KiB at 768x576) and
+    slower to encode, and brightness reads as "how different from the background" just as well.
+    """
+    u8 = cv2.convertScaleAbs(distance, alpha=255.0)
+    ok, buf = cv2.imencode(".jpg", u8, [cv2.IMWRITE_JPEG_QUALITY, opts.distance_quality])
     if not ok:
         raise RuntimeError("cv2.imencode failed on D_B")
     return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg", draw_order=-9.0)
@@ -108,12 +111,13 @@ def meta_context(capacity: int) -> rr.AnnotationContext:
 
 
 def metas_image(label_image: np.ndarray, labels: np.ndarray, metas: np.ndarray) -> np.ndarray:
-    """(H,W) uint16: each target's pixels hold its meta id (0 elsewhere)."""
+    """(H,W) uint8 (uint16 once a meta id exceeds 255): each target's pixels hold its meta id."""
     if len(labels) == 0:
-        return np.zeros(label_image.shape, np.uint16)
-    lut = np.zeros(int(max(labels.max(), label_image.max())) + 1, np.uint16)
+        return np.zeros(label_image.shape, np.uint8)
+    dtype = np.uint8 if int(metas.max()) < 256 else np.uint16
+    lut = np.zeros(int(max(labels.max(), label_image.max())) + 1, dtype)
     lut[labels] = metas
-    return lut[label_image]
+    return np.take(lut, label_image)
 
 
 def blobs_layer(boxes_xywh: np.ndarray, is_mvo: np.ndarray) -> rr.Boxes2D:

@@ -26,7 +26,7 @@ import rerun.blueprint as rrb
 
 __all__ = ["Outputs", "Target", "display_available", "open_outputs", "rerun_executable"]
 
-Viewer = Literal["auto", "native", "serve", "none"]
+Viewer = Literal["auto", "native", "serve", "connect", "none"]
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,8 @@ class Target:
     """What to do with a recording.
 
     save:      write an .rrd file (complete and readable even after Ctrl-C or an error)
-    viewer:    "auto", "native", "serve" or "none"
+    viewer:    "auto", "native", "serve", "connect" (to a viewer already listening on
+               ``grpc_port``, e.g. spawned by ``--watch``) or "none"
     bind:      address the served viewer listens on (default loopback only)
     grpc_port, web_port: ports of the served viewer
     """
@@ -124,8 +125,9 @@ def open_outputs(rec: rr.RecordingStream, target: Target,
         mode = "native" if display_available() else "serve"
     sinks: list[rr.FileSink | rr.GrpcSink] = []
     outputs = Outputs(rec, mode)
-    if mode == "native":
-        rec.spawn(connect=False, port=target.grpc_port)
+    if mode in ("native", "connect"):
+        if mode == "native":
+            rec.spawn(connect=False, port=target.grpc_port)
         sinks.append(rr.GrpcSink(f"rerun+http://127.0.0.1:{target.grpc_port}/proxy"))
     elif mode == "serve":
         grpc_url, outputs.server = _serve(target)

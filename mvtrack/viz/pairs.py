@@ -157,7 +157,10 @@ def hough_mosaic(key: tuple[str, str], slots: Sequence[Any]
 def _log_hough(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
     a, b = key
     mosaic, pts, text, tiles, titles = hough_mosaic(key, pr.slots)
-    sink.rec.log(paths.hough_accumulators(a, b), rr.Image(mosaic, color_model="BGR"))
+    ok, buf = cv2.imencode(".jpg", mosaic, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    if ok:
+        sink.rec.log(paths.hough_accumulators(a, b),
+                     rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg"))
     sink.rec.log(paths.hough_peaks(a, b), rr.Points2D(pts, labels=text, colors=(0, 255, 0),
                                                       radii=2.5))
     sink.rec.log(paths.hough_tiles(a, b), rr.Boxes2D(

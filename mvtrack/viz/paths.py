@@ -14,7 +14,7 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
 
     /cameras/{cam}/image            EncodedImage (JPEG) or Image (lossless): the frame
     /cameras/{cam}/background       EncodedImage or Image: the background B (every N frames)
-    /cameras/{cam}/distance         EncodedImage: D_B in [0, 1] through the turbo colour map
+    /cameras/{cam}/distance         EncodedImage: D_B in [0, 1] as gray (black 0, white 1)
     /cameras/{cam}/masks            SegmentationImage: 1 MVO, 2 ghost, 3 foreground shadow,
                                     4 ghost shadow (legend: its own AnnotationContext)
     /cameras/{cam}/labels           SegmentationImage: each target's pixels hold its meta id
@@ -33,7 +33,7 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
 
 Per overlapping pair ``a-b`` (names in the clip's overlap order)::
 
-    /pairs/{a}-{b}/hough/accumulators  Image: the pair's eight Hough accumulators as one mosaic,
+    /pairs/{a}-{b}/hough/accumulators  EncodedImage: the pair's eight Hough accumulators as one mosaic,
                                     row 0 lines seen in a, row 1 seen in b, columns the sides
                                     left, right, top, bottom; in a tile rows are theta bins
                                     (0..pi downwards), columns rho bins (logged at re-estimates)
