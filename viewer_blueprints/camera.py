@@ -22,7 +22,8 @@ def _camera_tab(cam: str) -> rrb.Container:
     side = rrb.Vertical(
         rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: background B",
                           contents=[paths.camera_layer(cam, "background")]),
-        rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: D_B (white: far from the background)",
+        rrb.Spatial2DView(origin=paths.camera(cam),
+                          name=f"{cam}: D_B (white: far from the background)",
                           contents=[paths.camera_layer(cam, "distance"),
                                     paths.camera_layer(cam, "blobs")]),
         rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: masks (MVO, ghost, shadows)",
