@@ -34,8 +34,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
 Per overlapping pair ``a-b`` (names in the clip's overlap order)::
 
     /pairs/{a}-{b}/hough/accumulators  EncodedImage: the pair's eight Hough accumulators as one
-                                    mosaic, row 0 lines seen in a, row 1 seen in b, columns the sides
-                                    left, right, top, bottom; in a tile rows are theta bins
+                                    mosaic, row 0 lines seen in a, row 1 seen in b, columns the
+                                    sides left, right, top, bottom; in a tile rows are theta bins
                                     (0..pi downwards), columns rho bins (logged at re-estimates)
     /pairs/{a}-{b}/hough/peaks      Points2D: the accumulators' peaks, labelled with their votes
     /pairs/{a}-{b}/hough/tiles      Boxes2D: the tiles' outlines
