@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import csv
 import math
+from pathlib import Path
 
 import cv2
 import numpy as np
@@ -261,3 +263,49 @@ def test_target_feet_on_track_results() -> None:
     _, empty = track_masks(tracker_init(), np.zeros((20, 20), np.int32), None, TrackerConfig())
     pts, heights = target_feet(empty, CFG)
     assert pts.shape == (0, 2) and heights.shape == (0,)
+
+
+# --------------------------------------------------------------------------- generated clip
+
+
+def _truth_people(clip: Path, cam: str) -> list[tuple[np.ndarray, np.ndarray]]:
+    """(mask, true foot) of every fully visible person alone in its component, off the border."""
+    rows: dict[int, list[list[float]]] = {}
+    with open(clip / "truth" / f"{cam}.csv", newline="") as f:
+        for r in csv.DictReader(f):
+            keys = ("foot_x", "foot_y", "box_x", "box_y", "box_w", "box_h", "visible")
+            rows.setdefault(int(r["frame"]), []).append([float(r[k]) for k in keys])
+    out = []
+    for png in sorted((clip / "truth" / "masks" / cam).glob("*.png")):
+        person = cv2.imread(str(png), cv2.IMREAD_UNCHANGED) == 1
+        lab, _ = ndimage.label(person)
+        height, width = person.shape
+        for fx, fy, bx, by, bw, bh, visible in rows.get(int(png.stem), []):
+            x0, y0 = round(bx + 0.5), round(by + 0.5)
+            ids = np.bincount(lab[y0 : y0 + round(bh), x0 : x0 + round(bw)].ravel())
+            ids[0] = 0
+            if ids.max() == 0:
+                continue
+            mask = lab == int(np.argmax(ids))
+            ys, xs = np.nonzero(mask)
+            alone = abs(np.ptp(xs) + 1 - bw) <= 1 and abs(np.ptp(ys) + 1 - bh) <= 1
+            inside = xs.min() > 0 and ys.min() > 0 and xs.max() < width - 1
+            if visible > 0.999 and alone and inside and ys.max() < height - 1:
+                out.append((mask, np.array([fx, fy])))
+    return out
+
+
+def test_tilted_scenario_truth_masks(tmp_path: Path) -> None:
+    try:
+        from mvtrack.generate import generate_clip
+    except ImportError:
+        pytest.skip("mvtrack.generate.generate_clip is not available yet")
+    clip = generate_clip(
+        tmp_path / "tilted", "tilted", seed=0, frames=100, size=(320, 240), image_format="png"
+    )
+    people = _truth_people(clip, "cam1")  # cam1 is the rolled camera
+    assert len(people) >= 10
+    err_pca = np.median([np.linalg.norm(feet_pca(m).point - t) for m, t in people])
+    err_box = np.median([np.linalg.norm(feet_bbox(m).point - t) for m, t in people])
+    assert err_pca <= 3.0, (err_pca, err_box)
+    assert err_pca < err_box, (err_pca, err_box)
