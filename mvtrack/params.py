@@ -26,6 +26,8 @@ __all__ = [
     "FovConfig",
     "HomographyConfig",
     "MarkerConfig",
+    "MatcherConfig",
+    "MetaConfig",
     "Params",
     "ParamsError",
     "TrackerConfig",
@@ -262,6 +264,53 @@ class HomographyConfig(_Checked):
 
 
 @dataclass(frozen=True)
+class MatcherConfig(_Checked):
+    """Homography-based association per camera pair (SPEC §7, thesis §3.2.7)."""
+
+    method: str = param(
+        "homography", "'homography' (thesis) or 'fov' (FOV-event associations only, Khan & Shah)"
+    )
+    # d = mean of the two transfer errors, each divided by the height of the target it lands
+    # next to: 0.4 body heights is about a shoulder width and a half, larger than the feet
+    # errors of the front end (~0.1 height) and smaller than the gap between people walking apart.
+    match_threshold_heights: float = param(
+        0.4, "confirm/create/re-attach gate on the symmetric transfer distance (body heights)",
+        0.0, 100.0,
+    )
+    confirm_frames: int = param(
+        5, "create: consecutive consistent frames before a new pair link is made", 1, 10000
+    )
+    break_after_frames: int = param(
+        10, "refine: consecutive inconsistent frames that break a link", 1, 10000
+    )
+    reattach_window_frames: int = param(
+        150, "re-attach: frames a target whose partner was lost may take a new partner", 0, 100000
+    )
+    unseen_margin_px: float = param(
+        4.0, "expected-but-unseen: a projection this far inside the other frame is expected",
+        -1000.0, 1000.0,
+    )
+
+    def _check(self) -> None:
+        if self.method not in ("homography", "fov"):
+            raise ParamsError(f"method = {self.method!r} must be 'homography' or 'fov'")
+
+
+@dataclass(frozen=True)
+class MetaConfig(_Checked):
+    """Meta-targets over N cameras and camera cueing (SPEC §7–9)."""
+
+    meta_timeout_frames: int = param(
+        25, "a meta-target ends when none of its targets was seen for this many frames",
+        0, 100000,
+    )
+    cue_margin_px: float = param(
+        4.0, "cueing: a projected ground point this far inside a frame is expected there",
+        -1000.0, 1000.0,
+    )
+
+
+@dataclass(frozen=True)
 class Params:
     """All thresholds, one config per stage; TOML tables are named after these fields."""
 
@@ -271,6 +320,8 @@ class Params:
     fov: FovConfig = field(default_factory=FovConfig)
     markers: MarkerConfig = field(default_factory=MarkerConfig)
     homography: HomographyConfig = field(default_factory=HomographyConfig)
+    matcher: MatcherConfig = field(default_factory=MatcherConfig)
+    meta: MetaConfig = field(default_factory=MetaConfig)
 
 
 def _stage_types() -> dict[str, type]:

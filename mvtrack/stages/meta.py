@@ -1,0 +1,266 @@
+"""Meta-targets over N cameras: one consistent label per person (SPEC §7–8).
+
+The pair links of every declared overlap join targets into meta-targets: the connected
+components of the link graph, so a person walking A → C → B keeps one label although A and B do
+not overlap. A meta-target holds at most one target per camera: links are added strongest first
+(evidence = frames the link was confirmed, then age), and a link that would put two targets of
+one camera into one meta-target is rejected and reported as a :class:`Conflict`.
+
+Labels are stable: each component inherits the previous meta of most of its members (ties: the
+member that has carried it longest; merging components keep the oldest meta); components with
+no previous meta get a new one. Every present target always has a meta. A meta-target ends
+``meta_timeout_frames`` after its last target was seen; ids are never reused.
+
+    state = meta_init()
+    state, result = meta_step(state, MetaInputs(cameras, edges, frame), params.meta)
+    result.metas["cam0"]          # (N,) int64, one meta per target of cam0 (labels order)
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from mvtrack.params import MetaConfig
+from mvtrack.stages.targets import CameraTargets
+
+__all__ = [
+    "Conflict",
+    "Edge",
+    "MetaInputs",
+    "MetaResult",
+    "MetaState",
+    "meta_init",
+    "meta_step",
+]
+
+Node = tuple[str, int]
+"""(camera, camera-local target label)."""
+
+
+@dataclass(frozen=True)
+class Edge:
+    """A pair link between two targets of two cameras, with its evidence.
+
+    evidence: frames the link was confirmed (+1 so that unconfirmed FOV links still count)
+    since:    frame the link was made (older wins ties)
+    source:   how the pair made it ("fov", "create", "reattach", ...)
+    """
+
+    a: Node
+    b: Node
+    evidence: float
+    since: int
+    source: str = ""
+
+
+@dataclass(frozen=True)
+class Conflict:
+    """A link rejected because it would give one meta-target two targets of ``camera``.
+
+    rejected: the link;  holder: the target of ``camera`` already in the meta-target (kept)
+    """
+
+    rejected: Edge
+    camera: str
+    holder: Node
+
+
+@dataclass(frozen=True)
+class MetaState:
+    """Consistent labels across frames. Frozen; steps return a new state.
+
+    of_target:  present (camera, label) -> meta
+    since:      present (camera, label) -> frame it got its current meta
+    last_seen:  live meta -> last frame one of its targets was present
+    last_feet:  live meta -> camera -> last feet [x, y] px seen there (for cueing)
+    next_meta:  the next new meta id (ids start at 1, never reused)
+    """
+
+    of_target: Mapping[Node, int] = field(default_factory=dict)
+    since: Mapping[Node, int] = field(default_factory=dict)
+    last_seen: Mapping[int, int] = field(default_factory=dict)
+    last_feet: Mapping[int, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
+    next_meta: int = 1
+
+
+@dataclass(frozen=True)
+class MetaInputs:
+    """One frame: every camera's targets and the links of every pair."""
+
+    cameras: Mapping[str, CameraTargets]
+    edges: Sequence[Edge]
+    frame: int
+
+
+@dataclass(frozen=True, eq=False)
+class MetaResult:
+    """Every intermediate of one meta step.
+
+    metas:      camera -> (N,) int64 meta of each target (that camera's ``labels`` order)
+    members:    meta -> its present targets, sorted
+    accepted:   links that joined targets, strongest first;  conflicts: links rejected
+    created:    metas new this frame;  merged: (absorbed meta, surviving meta)
+    split:      (meta, new meta) when a meta-target came apart and one part got a new label
+    ended:      metas timed out this frame;  live: metas alive after this frame (some may
+                have no target now: not seen anywhere for less than the timeout)
+    last_feet:  live meta -> camera -> last feet [x, y] px
+    """
+
+    frame: int
+    metas: Mapping[str, np.ndarray]
+    members: Mapping[int, tuple[Node, ...]]
+    accepted: tuple[Edge, ...]
+    conflicts: tuple[Conflict, ...]
+    created: tuple[int, ...]
+    merged: tuple[tuple[int, int], ...]
+    split: tuple[tuple[int, int], ...]
+    ended: tuple[int, ...]
+    live: tuple[int, ...]
+    last_feet: Mapping[int, Mapping[str, tuple[float, float]]]
+
+
+def meta_init() -> MetaState:
+    """No targets, no metas; the first meta is 1."""
+    return MetaState()
+
+
+class _Components:
+    """Union-find over nodes that keeps, per root, the camera -> node map (one per camera)."""
+
+    def __init__(self, nodes: Sequence[Node]) -> None:
+        self.parent = {n: n for n in nodes}
+        self.cams: dict[Node, dict[str, Node]] = {n: {n[0]: n} for n in nodes}
+
+    def find(self, n: Node) -> Node:
+        while self.parent[n] != n:
+            self.parent[n] = self.parent[self.parent[n]]
+            n = self.parent[n]
+        return n
+
+    def join(self, edge: Edge) -> Conflict | None:
+        """Union the edge's components unless that puts two targets of a camera together."""
+        ra, rb = self.find(edge.a), self.find(edge.b)
+        if ra == rb:
+            return None
+        clash = sorted(set(self.cams[ra]) & set(self.cams[rb]))
+        if clash:
+            cam = clash[0]
+            holder = self.cams[ra][cam] if self.cams[ra][cam] not in (edge.a, edge.b) else (
+                self.cams[rb][cam])
+            return Conflict(edge, cam, holder)
+        self.parent[rb] = ra
+        self.cams[ra].update(self.cams.pop(rb))
+        return None
+
+    def groups(self) -> list[tuple[Node, ...]]:
+        out: dict[Node, list[Node]] = {}
+        for n in self.parent:
+            out.setdefault(self.find(n), []).append(n)
+        return [tuple(sorted(g)) for g in out.values()]
+
+
+def _link(nodes: Sequence[Node], edges: Sequence[Edge]) -> tuple[
+        list[tuple[Node, ...]], list[Edge], list[Conflict]]:
+    """Components of the strongest consistent subset of ``edges`` (greedy, strongest first)."""
+    present = set(nodes)
+    comps = _Components(nodes)
+    accepted, conflicts = [], []
+    order = sorted(edges, key=lambda e: (-e.evidence, e.since, e.a, e.b))
+    for edge in order:
+        if edge.a not in present or edge.b not in present:
+            continue
+        conflict = comps.join(edge)
+        if conflict is None:
+            accepted.append(edge)
+        else:
+            conflicts.append(conflict)
+    return comps.groups(), accepted, conflicts
+
+
+def _claims(state: MetaState, groups: list[tuple[Node, ...]],
+            frame: int) -> list[tuple[int, int, int, int]]:
+    """(group index, old meta, -members holding it, earliest since) for every candidate."""
+    out = []
+    for g, members in enumerate(groups):
+        held: dict[int, list[int]] = {}
+        for n in members:
+            if n in state.of_target:
+                held.setdefault(state.of_target[n], []).append(state.since.get(n, frame))
+        out += [(g, m, -len(s), min(s)) for m, s in held.items()]
+    return out
+
+
+def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int) -> tuple[
+        list[int], int, list[int], list[tuple[int, int]], list[tuple[int, int]]]:
+    """A meta per group: kept from the previous frame where possible, else new."""
+    claims = sorted(_claims(state, groups, frame), key=lambda c: (c[2], c[3], c[1]))
+    ids = [0] * len(groups)
+    taken: set[int] = set()
+    for g, meta, _, _ in claims:
+        if not ids[g] and meta not in taken:
+            ids[g] = meta
+            taken.add(meta)
+    next_meta, created = state.next_meta, []
+    for g in range(len(groups)):
+        if not ids[g]:
+            ids[g], next_meta = next_meta, next_meta + 1
+            created.append(ids[g])
+    merged: set[tuple[int, int]] = set()
+    split: set[tuple[int, int]] = set()
+    for g, meta, _, _ in claims:  # an old meta not kept by this group: split off or absorbed
+        if ids[g] != meta:
+            (split if meta in taken else merged).add((meta, ids[g]))
+    return ids, next_meta, created, sorted(merged), sorted(split)
+
+
+def _feet_of(cameras: Mapping[str, CameraTargets]) -> dict[Node, tuple[float, float]]:
+    return {
+        (name, int(label)): (float(t.feet[i, 0]), float(t.feet[i, 1]))
+        for name, t in cameras.items()
+        for i, label in enumerate(t.labels.tolist())
+    }
+
+
+def meta_step(state: MetaState, inputs: MetaInputs,
+              cfg: MetaConfig) -> tuple[MetaState, MetaResult]:
+    """Join this frame's targets into meta-targets and name them (module docstring)."""
+    frame = inputs.frame
+    feet = _feet_of(inputs.cameras)
+    groups, accepted, conflicts = _link(list(feet), inputs.edges)
+    ids, next_meta, created, merged, split = _name(state, groups, frame)
+    of_target = {n: ids[g] for g, members in enumerate(groups) for n in members}
+    since = {n: state.since.get(n, frame) if state.of_target.get(n) == m else frame
+             for n, m in of_target.items()}
+    last_seen = {m: s for m, s in state.last_seen.items() if frame - s <= cfg.meta_timeout_frames}
+    last_feet = {m: dict(state.last_feet.get(m, {})) for m in last_seen}
+    for n, m in of_target.items():
+        last_seen[m] = frame
+        last_feet.setdefault(m, {})[n[0]] = feet[n]
+    absorbed = {m for m, _ in merged}
+    for m in absorbed - set(ids):
+        last_seen.pop(m, None)
+        last_feet.pop(m, None)
+    ended = sorted(set(state.last_seen) - set(last_seen) - absorbed)
+    metas = {
+        name: np.array([of_target[(name, int(label))] for label in t.labels.tolist()], np.int64)
+        for name, t in inputs.cameras.items()
+    }
+    frozen_feet = {m: dict(v) for m, v in last_feet.items()}
+    new_state = MetaState(of_target, since, last_seen, frozen_feet, next_meta)
+    result = MetaResult(
+        frame=frame,
+        metas=metas,
+        members={ids[g]: members for g, members in enumerate(groups)},
+        accepted=tuple(accepted),
+        conflicts=tuple(conflicts),
+        created=tuple(created),
+        merged=tuple(merged),
+        split=tuple(split),
+        ended=tuple(ended),
+        live=tuple(sorted(last_seen)),
+        last_feet=frozen_feet,
+    )
+    return new_state, result
