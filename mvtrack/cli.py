@@ -228,12 +228,20 @@ def track(
     mask_every: Annotated[
         int, typer.Option(help="Write segmentation masks every N frames (0: never).")
     ] = 25,
+    matcher: Annotated[
+        str | None,
+        typer.Option("--matcher", help="Cross-camera association: 'homography' (default) or "
+                     "'fov' (FOV-event associations only, the Khan & Shah baseline); "
+                     "same as --set matcher.method=..."),
+    ] = None,
 ) -> None:
     """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
     from mvtrack.io.results import ResultsWriter
     from mvtrack.pipeline import run
     from mvtrack.report import run_info
 
+    if matcher is not None:
+        set_ = [*(set_ or []), f"matcher.method={matcher}"]
     with user_errors():
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
     with opened:

@@ -34,7 +34,11 @@ from mvtrack.stages.blobtrack import (
     track_masks,
     tracker_init,
 )
+from mvtrack.stages.cues import Cue, CueInputs, camera_cues
 from mvtrack.stages.feet import Feet, target_feet_records
+from mvtrack.stages.homography import HomographyEstimate
+from mvtrack.stages.matcher import MatchInputs, MatchResult, match_init, match_step
+from mvtrack.stages.meta import Edge, MetaInputs, MetaResult, MetaState, meta_init, meta_step
 from mvtrack.stages.pair import (
     PairConfigs,
     PairResult,
@@ -46,7 +50,7 @@ from mvtrack.stages.targets import CameraTargets
 
 __all__ = ["CameraResult", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
 
-STAGES = ("read", "background", "tracker", "feet", "pairs")
+STAGES = ("read", "background", "tracker", "feet", "pairs", "metas")
 """Stage names in timing tables, in pipeline order."""
 
 
@@ -76,6 +80,10 @@ class FrameResult:
     pairs: per overlapping pair (a, b), the pair-learning record (FOV, markers, homography)
     metas: per camera, (N,) int64 consistent label of each target (``targets.labels`` order)
     stage_ms: milliseconds spent per stage (:data:`STAGES`) in this frame, all cameras
+    matches: per overlapping pair (a, b), the homography matcher's record (costs, links,
+             confirmations, breaks, re-attachments, creations, expected-but-unseen)
+    meta: the meta-target record (components, accepted links, conflicts, merges, splits)
+    cues: per live meta-target and camera, expected / seen (``cues.csv``)
     """
 
     index: int
@@ -83,6 +91,9 @@ class FrameResult:
     pairs: Mapping[tuple[str, str], PairResult]
     metas: Mapping[str, np.ndarray]
     stage_ms: Mapping[str, float]
+    matches: Mapping[tuple[str, str], MatchResult] = field(default_factory=dict)
+    meta: MetaResult | None = None
+    cues: tuple[Cue, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -91,30 +102,25 @@ class _CameraState:
     tracker: TrackerState
 
 
-@dataclass(frozen=True)
-class _MetaState:
-    """Consistent labels. Until the multi-camera stages exist, each target is its own meta."""
+def _edges(matches: Mapping[tuple[str, str], MatchResult]) -> list[Edge]:
+    """Every pair's links as meta-graph edges, with their evidence."""
+    return [
+        Edge((a, link.a), (b, link.b), float(link.confirmations + 1), link.since, link.source)
+        for (a, b), m in matches.items()
+        for link in m.links
+    ]
 
-    of_target: Mapping[tuple[str, int], int] = field(default_factory=dict)
-    next_meta: int = 1
 
-
-def _assign_metas(
-    state: _MetaState, cameras: Mapping[str, CameraResult]
-) -> tuple[_MetaState, dict[str, np.ndarray]]:
-    of_target, next_meta = {}, state.next_meta
-    metas: dict[str, np.ndarray] = {}
-    for name, cam in cameras.items():
-        ids = []
-        for label in cam.targets.labels.tolist():
-            key = (name, label)
-            if key not in state.of_target:
-                of_target[key], next_meta = next_meta, next_meta + 1
-            else:
-                of_target[key] = state.of_target[key]
-            ids.append(of_target[key])
-        metas[name] = np.asarray(ids, np.int64)
-    return _MetaState(of_target, next_meta), metas
+def _shared(members: Mapping[int, tuple[tuple[str, int], ...]],
+            a: str, b: str) -> list[tuple[int, int]]:
+    """(A label, B label) pairs that share a meta-target."""
+    out = []
+    for nodes in members.values():
+        in_a = [label for cam, label in nodes if cam == a]
+        in_b = [label for cam, label in nodes if cam == b]
+        if in_a and in_b:
+            out.append((in_a[0], in_b[0]))
+    return out
 
 
 class _Timer:
@@ -150,7 +156,9 @@ class Pipeline:
             (a, b): pair_init((a, b), (size[a], size[b])) for a, b in overlaps
             if a in size and b in size
         }
-        self._metas = _MetaState()
+        self._matchers = {pair: match_init(pair) for pair in self._pairs}
+        self._metas: MetaState = meta_init()
+        self._members: Mapping[int, tuple[tuple[str, int], ...]] = {}
 
     def pair_summaries(self) -> list[dict[str, Any]]:
         """One `pairs.json` object per overlapping pair (FORMATS.md), as learned so far."""
@@ -168,11 +176,35 @@ class Pipeline:
         with timer("pairs"):
             for (a, b), state in self._pairs.items():
                 self._pairs[a, b], pairs[a, b] = pair_step(
-                    state, results[a].targets, results[b].targets, self._pair_cfg, index
+                    state, results[a].targets, results[b].targets, self._pair_cfg, index,
+                    links=_shared(self._members, a, b),
                 )
-        self._metas, metas = _assign_metas(self._metas, results)
-        return FrameResult(index=index, cameras=results, pairs=pairs, metas=metas,
-                           stage_ms=timer.ms)
+        with timer("metas"):
+            matches, meta, cues = self._meta_step(index, results, pairs)
+        return FrameResult(index=index, cameras=results, pairs=pairs, metas=meta.metas,
+                           stage_ms=timer.ms, matches=matches, meta=meta, cues=cues)
+
+    def _meta_step(self, index: int, results: Mapping[str, CameraResult],
+                   pairs: Mapping[tuple[str, str], PairResult]) -> tuple[
+            dict[tuple[str, str], MatchResult], MetaResult, tuple[Cue, ...]]:
+        """Homography matching per pair, meta-targets over all cameras, camera cues."""
+        matches = {}
+        for (a, b), pr in pairs.items():
+            inputs = MatchInputs(results[a].targets, results[b].targets, pr.homography,
+                                 pr.associations, index)
+            self._matchers[a, b], matches[a, b] = match_step(
+                self._matchers[a, b], inputs, self.params.matcher)
+        targets = {name: cam.targets for name, cam in results.items()}
+        self._metas, meta = meta_step(self._metas, MetaInputs(targets, _edges(matches), index),
+                                      self.params.meta)
+        self._members = meta.members
+        homographies = {
+            pair: pr.homography.H_b_from_a for pair, pr in pairs.items()
+            if isinstance(pr.homography, HomographyEstimate)
+        }
+        sizes = {c.name: c.size for c in self.cameras}
+        cues = camera_cues(CueInputs(meta, sizes, homographies), self.params.meta)
+        return matches, meta, cues
 
     def _camera_step(self, cam: CameraSpec, image: np.ndarray | None,
                      dets: Detections | None, timer: _Timer) -> CameraResult:

@@ -19,12 +19,16 @@ from typing import Any
 import cv2
 import numpy as np
 
-__all__ = ["TRACKS_HEADER", "ResultsWriter", "TrackRows", "read_tracks"]
+__all__ = [
+    "CUES_HEADER", "TRACKS_HEADER", "CueRows", "ResultsWriter", "TrackRows", "read_cues",
+    "read_tracks",
+]
 
 TRACKS_HEADER = (
     "frame", "camera", "target", "meta", "foot_x", "foot_y",
     "box_x", "box_y", "box_w", "box_h", "height",
 )
+CUES_HEADER = ("frame", "meta", "camera", "expected", "seen")
 
 
 class ResultsWriter:
@@ -40,6 +44,9 @@ class ResultsWriter:
         self._file = (self.out_dir / "tracks.csv").open("w", newline="", encoding="utf-8")
         self._csv = csv.writer(self._file, lineterminator="\n")
         self._csv.writerow(TRACKS_HEADER)
+        self._cues_file = (self.out_dir / "cues.csv").open("w", newline="", encoding="utf-8")
+        self._cues = csv.writer(self._cues_file, lineterminator="\n")
+        self._cues.writerow(CUES_HEADER)
 
     def on_frame(self, result: Any) -> None:
         """Write one :class:`~mvtrack.pipeline.FrameResult`."""
@@ -55,7 +62,11 @@ class ResultsWriter:
                 ])
             if self.mask_every and result.index % self.mask_every == 0 and cam.background:
                 self._write_mask(name, result.index, cam)
+        for cue in getattr(result, "cues", ()):
+            self._cues.writerow([result.index, cue.meta, cue.camera, int(cue.expected),
+                                 int(cue.seen)])
         self._file.flush()
+        self._cues_file.flush()
 
     def _write_mask(self, name: str, index: int, cam: Any) -> None:
         coded = np.zeros(cam.background.mvo_labels.shape, np.uint8)
@@ -68,6 +79,7 @@ class ResultsWriter:
     def close(self, run_info: dict[str, Any], pairs: list[dict[str, Any]] | None = None) -> None:
         """Close `tracks.csv` and write `run.json` (and `pairs.json` when given)."""
         self._file.close()
+        self._cues_file.close()
         (self.out_dir / "run.json").write_text(json.dumps(run_info, indent=2) + "\n")
         if pairs is not None:
             (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
@@ -116,4 +128,38 @@ def read_tracks(path: Path) -> TrackRows:
         feet=num[:, 3:5],
         boxes_xywh=num[:, 5:9],
         height=num[:, 9],
+    )
+
+
+@dataclass(frozen=True)
+class CueRows:
+    """`cues.csv` as parallel arrays (N rows)."""
+
+    frame: np.ndarray  # (N,) int64
+    meta: np.ndarray  # (N,) int64
+    camera: np.ndarray  # (N,) str
+    expected: np.ndarray  # (N,) bool
+    seen: np.ndarray  # (N,) bool
+
+
+def read_cues(path: Path) -> CueRows:
+    """Read a `cues.csv`; errors name the file."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no cues.csv here (run `mvtrack track` first)")
+    with path.open(newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        header = tuple(next(reader, ()))
+        if header != CUES_HEADER:
+            raise ValueError(f"{path}:1: header {','.join(header)!r}, expected "
+                             f"{','.join(CUES_HEADER)!r}")
+        rows = list(reader)
+    try:
+        num = np.array([[int(r[0]), int(r[1]), int(r[3]), int(r[4])] for r in rows],
+                       np.int64).reshape(len(rows), 4)
+    except (ValueError, IndexError) as exc:
+        raise ValueError(f"{path}: a row is malformed ({exc})") from None
+    return CueRows(
+        frame=num[:, 0], meta=num[:, 1], camera=np.array([r[2] for r in rows], dtype=str),
+        expected=num[:, 2] != 0, seen=num[:, 3] != 0,
     )
