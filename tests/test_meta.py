@@ -1,0 +1,140 @@
+"""Meta-targets over N cameras: components, stable ids, conflicts, merges, splits, timeouts."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from mvtrack.params import MetaConfig
+from mvtrack.stages.meta import Edge, MetaInputs, MetaState, meta_init, meta_step
+from mvtrack.stages.targets import CameraTargets
+
+CFG = MetaConfig()
+
+
+def cam(*labels: int) -> CameraTargets:
+    n = len(labels)
+    feet = np.column_stack([np.arange(n) * 10.0 + 5, np.full(n, 50.0)]).reshape(n, 2)
+    return CameraTargets(np.asarray(labels, np.int64), feet, np.full(n, 30.0),
+                         np.tile([0.0, 0.0, 5.0, 30.0], (n, 1)), (100, 100))
+
+
+def edge(a: tuple[str, int], b: tuple[str, int], evidence: float = 1.0, since: int = 0) -> Edge:
+    return Edge(a, b, evidence, since)
+
+
+def step(state: MetaState, cameras: dict[str, CameraTargets], edges: list[Edge], frame: int,
+         cfg: MetaConfig = CFG):
+    return meta_step(state, MetaInputs(cameras, edges, frame), cfg)
+
+
+def meta_of(result, camera: str, label: int, cameras: dict[str, CameraTargets]) -> int:
+    return int(result.metas[camera][cameras[camera].index_of(label)])
+
+
+def test_every_target_has_its_own_meta_without_links() -> None:
+    cams = {"A": cam(1, 2), "B": cam(4)}
+    state, r = step(meta_init(), cams, [], 0)
+    assert sorted(np.concatenate(list(r.metas.values())).tolist()) == [1, 2, 3]
+    assert r.created == (1, 2, 3) and r.conflicts == ()
+    state, r2 = step(state, cams, [], 1)
+    assert all(np.array_equal(r.metas[c], r2.metas[c]) for c in cams)  # stable
+    assert r2.created == ()
+
+
+def test_chain_through_middle_camera_gives_one_label() -> None:
+    cams = {"A": cam(1), "B": cam(7), "C": cam(3)}
+    edges = [edge(("A", 1), ("C", 3)), edge(("C", 3), ("B", 7))]
+    _, r = step(meta_init(), cams, edges, 0)
+    assert {meta_of(r, c, lab, cams) for c, lab in (("A", 1), ("B", 7), ("C", 3))} == {1}
+    assert r.members[1] == (("A", 1), ("B", 7), ("C", 3))
+
+
+def test_conflict_resolved_by_evidence_and_exposed() -> None:
+    cams = {"A": cam(1), "B": cam(7, 8), "C": cam(3)}
+    strong = [edge(("A", 1), ("C", 3), 10), edge(("C", 3), ("B", 7), 10)]
+    weak = edge(("A", 1), ("B", 8), 3)
+    _, r = step(meta_init(), cams, [weak, *strong], 0)
+    assert len(r.conflicts) == 1
+    c = r.conflicts[0]
+    assert c.rejected == weak and c.camera == "B" and c.holder == ("B", 7)
+    assert meta_of(r, "A", 1, cams) == meta_of(r, "B", 7, cams) != meta_of(r, "B", 8, cams)
+    # with the evidence the other way round, the other B target wins
+    _, r = step(meta_init(), cams, [replace(weak, evidence=30), *strong], 0)
+    assert meta_of(r, "A", 1, cams) == meta_of(r, "B", 8, cams) != meta_of(r, "B", 7, cams)
+
+
+def test_break_keeps_meta_with_the_longest_holder() -> None:
+    cams = {"A": cam(1), "B": cam(5)}
+    state, _r0 = step(meta_init(), {"A": cam(1), "B": cam()}, [], 0)  # A1 alone: meta 1
+    state, r1 = step(state, cams, [edge(("A", 1), ("B", 5), since=1)], 1)
+    assert meta_of(r1, "B", 5, cams) == 1 and r1.created == ()
+    state, r2 = step(state, cams, [], 2)  # the link broke
+    assert meta_of(r2, "A", 1, cams) == 1
+    assert meta_of(r2, "B", 5, cams) == 2 and r2.split == ((1, 2),) and r2.created == (2,)
+
+
+def test_merge_keeps_the_older_meta_and_reports_it() -> None:
+    cams = {"A": cam(1), "B": cam(5)}
+    state, _ = step(meta_init(), {"A": cam(1), "B": cam()}, [], 0)  # A1: meta 1
+    state, r = step(state, cams, [], 1)  # B5: meta 2
+    assert meta_of(r, "B", 5, cams) == 2
+    state, r = step(state, cams, [edge(("A", 1), ("B", 5), since=1)], 2)
+    assert meta_of(r, "A", 1, cams) == meta_of(r, "B", 5, cams) == 1
+    assert r.merged == ((2, 1),)
+    assert 2 not in r.live
+
+
+def test_reattach_keeps_label_through_occlusion() -> None:
+    state, _ = step(meta_init(), {"A": cam(1), "B": cam(5)}, [edge(("A", 1), ("B", 5))], 0)
+    for k in range(1, 20):  # B loses the person; A still tracks it
+        state, r = step(state, {"A": cam(1), "B": cam()}, [], k)
+    cams = {"A": cam(1), "B": cam(9)}
+    _, r = step(state, cams, [edge(("A", 1), ("B", 9), since=20)], 20)
+    assert meta_of(r, "B", 9, cams) == 1
+
+
+def test_timeout_ends_metas_and_ids_are_never_reused() -> None:
+    cfg = replace(CFG, meta_timeout_frames=3)
+    state, r = step(meta_init(), {"A": cam(1)}, [], 0, cfg)
+    for k in range(1, 4):
+        state, r = step(state, {"A": cam()}, [], k, cfg)
+        assert r.live == (1,) and r.ended == ()
+    state, r = step(state, {"A": cam()}, [], 4, cfg)
+    assert r.live == () and r.ended == (1,)
+    _, r = step(state, {"A": cam(2)}, [], 5, cfg)
+    assert r.metas["A"].tolist() == [2]
+
+
+def test_last_feet_kept_for_target_less_metas() -> None:
+    state, _ = step(meta_init(), {"A": cam(1)}, [], 0)
+    _, r = step(state, {"A": cam()}, [], 1)
+    assert r.last_feet[1] == {"A": (5.0, 50.0)} and r.members == {}
+
+
+@settings(max_examples=60, deadline=None)
+@given(st.lists(st.tuples(st.integers(0, 2), st.integers(1, 4), st.integers(0, 2),
+                          st.integers(1, 4), st.integers(0, 20)), max_size=12),
+       st.integers(1, 4))
+def test_properties_random_link_graphs(raw: list, frames: int) -> None:
+    names = ("A", "B", "C")
+    cams = {n: cam(1, 2, 3, 4) for n in names}
+    edges = [edge((names[ca], la), (names[cb], lb), ev) for ca, la, cb, lb, ev in raw if ca != cb]
+    state = meta_init()
+    seen_ids: set[int] = set()
+    for k in range(frames):
+        state, r = step(state, cams, edges, k)
+        for n in names:  # every target has a meta >= 1
+            assert len(r.metas[n]) == 4 and (r.metas[n] >= 1).all()
+        for members in r.members.values():  # one target per camera per meta
+            assert len({c for c, _ in members}) == len(members)
+        for e in r.accepted:  # accepted links join their targets
+            assert meta_of(r, *e.a, cams) == meta_of(r, *e.b, cams)
+        ids = {int(m) for n in names for m in r.metas[n]}
+        assert not (set(r.created) & seen_ids)  # ids are never reused
+        seen_ids |= ids
+        if k:
+            assert r.created == ()  # same input, same labels
