@@ -192,7 +192,9 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
             sink.event(f"pair {name}: homography not estimated: {attempt.reason}",
                        rr.TextLogLevel.DEBUG)
     H = _valid_H(pr)
-    if H is None:
+    if H is None:  # nothing to project yet (an empty layer, so views and tests can rely on it)
+        for src, dst in ((a, b), (b, a)):
+            sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D([]))
         return
     sink.rec.log(paths.pair_layer(a, b, "quality_px"), rr.Scalars(float(pr.homography.quality_px)))
     for src, dst, M in ((a, b, H), (b, a, np.linalg.inv(H))):

@@ -29,7 +29,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/markers/{other}  Points2D: the markers of pair (cam, other), cam's side
     /cameras/{cam}/projected/{other}  Points2D: ``other``'s targets projected into ``cam``
                                     through the pair's homography, class id = meta
-    /cameras/{cam}/cues             Points2D: metas expected in ``cam`` but unseen (hollow rings)
+    /cameras/{cam}/cues             LineStrips2D: metas expected in ``cam`` but unseen, as hollow
+                                    rings (reserved: logged once the cueing stage exists)
 
 Per overlapping pair ``a-b`` (names in the clip's overlap order)::
 

@@ -163,6 +163,11 @@ class RerunSink:
             style = rr.SeriesLines(colors=camera_color(i), names=cam.name, widths=2.0)
             rec.log(paths.targets_metric(cam.name), style, static=True)
             rec.log(paths.foot_error(cam.name), style, static=True)
+        for i, (a, b) in enumerate(self.spec.overlaps):  # the series exist before any H
+            style = rr.SeriesLines(colors=camera_color(i), names=paths.pair_name(a, b),
+                                   widths=2.0)
+            rec.log(paths.transfer_error(a, b), style, static=True)
+            rec.log(paths.pair_layer(a, b, "quality_px"), style, static=True)
         self._grow_metas(64)
         for warning in self.spec.warnings:
             self.warn(warning)

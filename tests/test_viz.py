@@ -1,0 +1,351 @@
+"""The Rerun sink, blueprints, CLI and logging benchmark, read back from recordings.
+
+Recordings are written to files and read back with ``rerun.chunk.RrdReader``: every documented
+entity must be there with its archetype and one row per frame (or per the layer's cadence).
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pytest
+import rerun.blueprint as rrb
+from rerun.chunk import RrdReader
+from test_viz_scene import write_scene_clip
+from typer.testing import CliRunner
+
+import viewer_blueprints
+from mvtrack.io import open_clip, read_truth
+from mvtrack.params import Params, load_params
+from mvtrack.viz import paths
+from mvtrack.viz.bench import bench_logging
+from mvtrack.viz.cli import app
+from mvtrack.viz.colors import meta_color
+from mvtrack.viz.log import line_strip_in_frame, metas_image
+from mvtrack.viz.outputs import Target, open_outputs
+from mvtrack.viz.session import record_run
+from mvtrack.viz.sink import LogOptions, new_recording
+
+N_FRAMES = 40
+TRAIN = 20
+
+
+def _params() -> Params:
+    # two events per side are enough for a FOV line: the short clips then learn some
+    return load_params(None, [f"background.train_frames={TRAIN}", "fov.min_fov_events=2"])
+
+
+@pytest.fixture(scope="module")
+def scene(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    return write_scene_clip(tmp_path_factory.mktemp("viz") / "scene", N_FRAMES)
+
+
+def _record(clip_dir: Path, rrd: Path, frames: range | None = None,
+            options: LogOptions | None = None) -> Any:
+    with open_clip(clip_dir) as clip:
+        rng = frames or range(clip.spec.frame_count)
+        rec = new_recording("test", deterministic=True)
+        names = [c.name for c in clip.spec.cameras]
+        outputs = open_outputs(rec, Target(save=rrd, viewer="none"),
+                               viewer_blueprints.build("overview", names, clip.spec.overlaps))
+        try:
+            _, summary = record_run(clip, _params(), rng, rec, options)
+        finally:
+            outputs.close()
+    return summary
+
+
+def read_entities(rrd: Path) -> dict[str, dict[str, Any]]:
+    """Entity path -> {"columns": set of component columns, "rows": temporal rows,
+    "static": static rows, "frames": set of frame indices}."""
+    out: dict[str, dict[str, Any]] = defaultdict(
+        lambda: {"columns": set(), "rows": 0, "static": 0, "frames": set()})
+    for chunk in RrdReader(rrd).store().stream().to_chunks():
+        rb = chunk.to_record_batch()
+        entry = out[str(chunk.entity_path)]
+        entry["columns"].update(n for n in rb.schema.names if not n.startswith("rerun."))
+        if "frame" in rb.schema.names:
+            entry["rows"] += rb.num_rows
+            entry["frames"].update(v for v in rb.column("frame").to_pylist() if v is not None)
+        else:
+            entry["static"] += rb.num_rows
+    return dict(out)
+
+
+@pytest.fixture(scope="module")
+def recording(scene: Path, tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
+    rrd = tmp_path_factory.mktemp("rec") / "scene.rrd"
+    summary = _record(scene, rrd)
+    assert summary.frames == N_FRAMES
+    return read_entities(rrd)
+
+
+PER_FRAME = {  # layer -> archetype column that must be there on every frame
+    "image": "EncodedImage:blob",
+    "distance": "EncodedImage:blob",
+    "masks": "SegmentationImage:buffer",
+    "labels": "SegmentationImage:buffer",
+    "blobs": "Boxes2D:half_sizes",
+    "targets": "Boxes2D:class_ids",
+    "feet": "Points2D:positions",
+}
+
+
+@pytest.mark.parametrize("cam", ["cam0", "cam1"])
+@pytest.mark.parametrize("layer", sorted(PER_FRAME))
+def test_camera_layers_every_frame(recording: dict[str, Any], cam: str, layer: str) -> None:
+    entity = recording[paths.camera_layer(cam, layer)]
+    assert PER_FRAME[layer] in entity["columns"]
+    assert entity["frames"] == set(range(N_FRAMES))
+    assert entity["rows"] == N_FRAMES
+
+
+def test_background_every_25_frames(recording: dict[str, Any]) -> None:
+    entity = recording[paths.camera_layer("cam0", "background")]
+    assert "EncodedImage:blob" in entity["columns"]
+    assert entity["frames"] == {0, 25}  # background frame_index 0 and 25
+
+
+def test_static_documents_and_legends(recording: dict[str, Any]) -> None:
+    assert "TextDocument:text" in recording[paths.CLIP]["columns"]
+    params = recording[paths.PARAMS]
+    assert "TextDocument:text" in params["columns"]
+    assert "background.t_low" in params["columns"]  # AnyValues: every threshold by name
+    assert "AnnotationContext:context" in recording[paths.CAMERAS]["columns"]
+    assert "AnnotationContext:context" in recording[paths.camera_layer("cam0", "masks")]["columns"]
+
+
+def test_blob_values_ride_with_boxes(recording: dict[str, Any]) -> None:
+    cols = recording[paths.camera_layer("cam1", "blobs")]["columns"]
+    assert {"area_px", "max_distance", "mean_flow_px", "is_mvo"} <= cols
+
+
+def test_metrics_and_events(recording: dict[str, Any]) -> None:
+    for cam in ("cam0", "cam1"):
+        assert recording[paths.targets_metric(cam)]["rows"] == N_FRAMES
+        foot = recording[paths.foot_error(cam)]  # the scene has truth
+        assert "Scalars:scalars" in foot["columns"] and foot["rows"] >= N_FRAMES // 2
+    for stage in ("background", "tracker", "feet", "pairs"):
+        assert recording[paths.stage_ms(stage)]["rows"] == N_FRAMES
+    assert recording[paths.log_ms()]["rows"] == N_FRAMES
+    assert "TextLog:text" in recording[paths.EVENTS]["columns"]
+    assert recording[paths.EVENTS]["rows"] > 0
+    assert recording[paths.GROUND_TARGETS]["rows"] == N_FRAMES
+    assert recording[paths.GROUND_TRUTH]["rows"] == N_FRAMES  # metres: truth/ground.json
+    assert recording[paths.ground_fov("cam0")]["rows"] == N_FRAMES
+    assert recording[paths.SUMMARY]["static"] == 1
+
+
+def test_every_logged_path_is_documented(recording: dict[str, Any]) -> None:
+    doc = paths.__doc__ or ""
+    for entity in recording:
+        if entity.startswith("/__"):
+            continue
+        generic = entity.replace("cam0-cam1", "{a}-{b}").replace("/cam0", "/{cam}") \
+            .replace("/cam1", "/{cam}")
+        for stage in ("read", "background", "tracker", "feet", "pairs"):
+            generic = generic.replace(f"stage_ms/{stage}", "stage_ms/{stage}")
+        assert generic.split("/{other}")[0] in doc or generic.rsplit("/", 1)[0] in doc, entity
+
+
+# ------------------------------------------------------------------------------- pair layers
+
+
+@pytest.fixture(scope="module")
+def pair_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], Any]:
+    gen = pytest.importorskip("mvtrack.generate")
+    if not hasattr(gen, "generate_clip"):
+        pytest.skip("mvtrack.generate.generate_clip is not available")
+    root = tmp_path_factory.mktemp("pair")
+    clip = gen.generate_clip(root / "pair", "pair", seed=0, frames=150, size=(320, 240),
+                             image_format="png")
+    rrd = root / "pair.rrd"
+    summary = _record(Path(clip), rrd)
+    return read_entities(rrd), summary
+
+
+def test_pair_layers(pair_recording: tuple[dict[str, Any], Any]) -> None:
+    rec, summary = pair_recording
+    a, b = "cam0", "cam1"
+    for layer in ("markers", "links"):
+        assert rec[paths.pair_layer(a, b, layer)]["rows"] == 150
+    info = summary.pairs[0]
+    n_lines = len(info["fov_lines"])
+    assert info["fov_events"] > 0 and n_lines > 0
+    assert "TextLog:text" in rec[paths.EVENTS]["columns"]
+    fov_events = [rec.get(paths.camera_layer(c, "fov_events"), {"rows": 0})["rows"]
+                  for c in (a, b)]
+    assert sum(fov_events) > 0
+    for cam, other in ((a, b), (b, a)):
+        assert rec[paths.camera_pair_layer(cam, "fov_lines", other)]["rows"] == 150
+        assert rec[paths.camera_pair_layer(cam, "markers", other)]["rows"] == 150
+    if n_lines:
+        hough = rec[paths.hough_accumulators(a, b)]
+        assert "EncodedImage:blob" in hough["columns"] and hough["rows"] >= 1
+        assert rec[paths.hough_titles(a, b)]["rows"] == hough["rows"]
+    if info["H"] is not None:
+        assert rec[paths.pair_layer(a, b, "quality_px")]["rows"] >= 1
+        assert rec[paths.camera_pair_layer(b, "projected", a)]["rows"] >= 1
+
+
+# ------------------------------------------------------------------------------- blueprints
+
+
+def _view_paths(part: Any) -> list[str]:
+    """Every origin and contents expression of a blueprint's views."""
+    found: list[str] = []
+    if isinstance(part, rrb.Blueprint):
+        return [p for sub in part.root_container.contents for p in _view_paths(sub)] \
+            if part.root_container is not None else []
+    if isinstance(part, rrb.View):
+        origin = str(part.origin)
+        found.append(origin)
+        contents = part.contents
+        exprs = contents if isinstance(contents, list | tuple) else [contents]
+        found += [str(e).replace("$origin", origin) for e in exprs]
+        return found
+    for sub in getattr(part, "contents", None) or []:
+        found += _view_paths(sub)
+    return found
+
+
+@pytest.mark.parametrize("name", sorted(viewer_blueprints.BLUEPRINTS))
+@pytest.mark.parametrize("n_cams", [1, 2, 3])
+def test_blueprints_build_for_any_number_of_cameras(name: str, n_cams: int) -> None:
+    cams = [f"cam{i}" for i in range(n_cams)]
+    pairs = [(x, y) for i, x in enumerate(cams) for y in cams[i + 1:]]
+    bp = viewer_blueprints.build(name, cams, pairs)
+    assert isinstance(bp, rrb.Blueprint)
+    found = _view_paths(bp)
+    assert found
+    for p in found:
+        assert p.startswith("/"), p
+        assert "*" not in p.rstrip("*").rstrip("/"), f"wildcard inside {p}"
+    for cam in cams:
+        if name != "pairs" or n_cams > 1:
+            assert any(p.startswith(paths.camera(cam)) for p in found), (name, cam)
+
+
+@pytest.mark.parametrize("name", sorted(viewer_blueprints.BLUEPRINTS))
+def test_blueprints_refer_only_to_logged_paths(
+        name: str, pair_recording: tuple[dict[str, Any], Any]) -> None:
+    logged = set(pair_recording[0])
+    bp = viewer_blueprints.build(name, ["cam0", "cam1"], [("cam0", "cam1")])
+    for p in _view_paths(bp):
+        prefix = p.removesuffix("/**")
+        assert any(e == prefix or e.startswith(prefix + "/") for e in logged), p
+
+
+def test_unknown_layout_names_the_choices() -> None:
+    with pytest.raises(ValueError, match="overview"):
+        viewer_blueprints.build("nope", ["cam0"], [])
+
+
+# ------------------------------------------------------------------------------- pieces
+
+
+def test_meta_colours_are_stable_distinct_and_readable() -> None:
+    assert meta_color(7) == meta_color(7)
+    cols = np.array([meta_color(m) for m in range(1, 31)], float)
+    d = np.linalg.norm(cols[:, None] - cols[None], axis=2) + np.eye(30) * 1e9
+    assert d.min() > 25.0  # no two of the first 30 metas look alike
+    assert (cols.max(axis=1) >= 120).all()  # light enough for labels on a dark background
+
+
+def test_metas_image_maps_labels_to_metas() -> None:
+    label_image = np.array([[0, 3, 3], [9, 9, 0]], np.int32)
+    out = metas_image(label_image, np.array([3, 9]), np.array([5, 300]))
+    assert out.dtype == np.uint16
+    assert out.tolist() == [[0, 5, 5], [300, 300, 0]]
+    assert metas_image(label_image, np.array([3, 9]), np.array([1, 2])).dtype == np.uint8
+
+
+@pytest.mark.parametrize(("line", "want"), [
+    ((1.0, 0.0, -10.0), [[10.0, -0.5], [10.0, 239.5]]),  # x = 10
+    ((0.0, 1.0, -5.0), [[-0.5, 5.0], [319.5, 5.0]]),  # y = 5
+])
+def test_line_clipped_to_frame(line: tuple[float, float, float], want: list[list[float]]) -> None:
+    seg = line_strip_in_frame(line, (320, 240))
+    assert seg is not None
+    assert sorted(seg.tolist()) == sorted(want)
+    assert line_strip_in_frame((1.0, 0.0, 1000.0), (320, 240)) is None
+
+
+# ------------------------------------------------------------------------------- robustness
+
+
+class _Boom:
+    def __init__(self, at: int, exc: BaseException) -> None:
+        self.at, self.exc = at, exc
+
+    def __call__(self, done: int, total: int) -> None:
+        if done == self.at:
+            raise self.exc
+
+
+@pytest.mark.parametrize("exc", [KeyboardInterrupt(), RuntimeError("boom")])
+def test_interrupted_run_leaves_a_readable_recording(scene: Path, tmp_path: Path,
+                                                     exc: BaseException) -> None:
+    rrd = tmp_path / "cut.rrd"
+    with open_clip(scene) as clip:
+        rec = new_recording("cut", deterministic=True)
+        outputs = open_outputs(rec, Target(save=rrd, viewer="none"),
+                               viewer_blueprints.build("overview", ["cam0", "cam1"], []))
+        try:
+            _, summary = record_run(clip, _params(), range(N_FRAMES), rec,
+                                    progress=_Boom(10, exc))
+            assert summary.interrupted and summary.frames == 10
+        except RuntimeError:
+            assert isinstance(exc, RuntimeError)
+        finally:
+            outputs.close()
+    ents = read_entities(rrd)
+    assert ents[paths.camera_layer("cam0", "image")]["frames"] == set(range(10))
+    assert RrdReader(rrd).blueprints()  # the layout is embedded
+
+
+def test_recording_embeds_blueprint_and_truth_ground(scene: Path, tmp_path: Path) -> None:
+    rrd = tmp_path / "x.rrd"
+    _record(scene, rrd, frames=range(0, 3))
+    assert len(RrdReader(rrd).blueprints()) == 1
+    assert read_truth(scene) is not None
+
+
+# ------------------------------------------------------------------------------- CLI, bench
+
+
+def test_cli_saves_without_viewer(scene: Path, tmp_path: Path) -> None:
+    rrd = tmp_path / "cli.rrd"
+    res = CliRunner().invoke(app, [str(scene), "--save", str(rrd), "--no-viewer",
+                                   "--frames", "0:25", "--set", f"background.train_frames={TRAIN}",
+                                   "--layout", "camera"])
+    assert res.exit_code == 0, res.output
+    ents = read_entities(rrd)
+    assert ents[paths.camera_layer("cam1", "image")]["frames"] == set(range(25))
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--no-viewer"], "--no-viewer needs --save"),
+    (["--no-viewer", "--save", "x.rrd", "--layout", "nope"], "unknown layout"),
+    (["--no-viewer", "--save", "x.rrd", "--set", "background.nope=1"], "nope"),
+    (["--no-viewer", "--save", "x.rrd", "--jpeg-quality", "0"], "jpeg-quality"),
+])
+def test_cli_user_errors(scene: Path, tmp_path: Path, args: list[str], message: str) -> None:
+    args = [a if a != "x.rrd" else str(tmp_path / a) for a in args]
+    res = CliRunner().invoke(app, [str(scene), *args])
+    assert res.exit_code == 2
+    assert message in " ".join(res.output.split())
+
+
+def test_bench_logging(scene: Path, tmp_path: Path) -> None:
+    with open_clip(scene) as clip:
+        result = bench_logging(clip, _params(), range(0, 25), tmp_path)
+    d = result.as_dict()
+    assert d["frames"] == 25 and d["cameras"] == 2
+    assert d["fps_viewer_off"] > 0 and d["fps_viewer_on"] > 0
+    assert 1.0 < d["kib_per_frame"] < 200.0
+    assert math.isfinite(result.log_ms_per_frame) and result.log_ms_per_frame > 0
