@@ -161,7 +161,7 @@ def pair_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, 
     if not hasattr(gen, "generate_clip"):
         pytest.skip("mvtrack.generate.generate_clip is not available")
     root = tmp_path_factory.mktemp("pair")
-    clip = gen.generate_clip(root / "pair", "pair", seed=0, frames=150, size=(320, 240),
+    clip = gen.generate_clip(root / "pair", "pair", seed=0, frames=100, size=(320, 240),
                              image_format="png")
     rrd = root / "pair.rrd"
     summary = _record(Path(clip), rrd)
@@ -172,7 +172,7 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any]) -> None:
     rec, summary = pair_recording
     a, b = "cam0", "cam1"
     for layer in ("markers", "links"):
-        assert rec[paths.pair_layer(a, b, layer)]["rows"] == 150
+        assert rec[paths.pair_layer(a, b, layer)]["rows"] == 100
     info = summary.pairs[0]
     n_lines = len(info["fov_lines"])
     assert info["fov_events"] > 0 and n_lines > 0
@@ -181,8 +181,8 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any]) -> None:
                   for c in (a, b)]
     assert sum(fov_events) > 0
     for cam, other in ((a, b), (b, a)):
-        assert rec[paths.camera_pair_layer(cam, "fov_lines", other)]["rows"] == 150
-        assert rec[paths.camera_pair_layer(cam, "markers", other)]["rows"] == 150
+        assert rec[paths.camera_pair_layer(cam, "fov_lines", other)]["rows"] == 100
+        assert rec[paths.camera_pair_layer(cam, "markers", other)]["rows"] == 100
     if n_lines:
         hough = rec[paths.hough_accumulators(a, b)]
         assert "EncodedImage:blob" in hough["columns"] and hough["rows"] >= 1
@@ -349,3 +349,17 @@ def test_bench_logging(scene: Path, tmp_path: Path) -> None:
     assert d["fps_viewer_off"] > 0 and d["fps_viewer_on"] > 0
     assert 1.0 < d["kib_per_frame"] < 200.0
     assert math.isfinite(result.log_ms_per_frame) and result.log_ms_per_frame > 0
+
+
+def test_layout_saved_from_the_viewer_loads_by_path(scene: Path, tmp_path: Path) -> None:
+    rbl = tmp_path / "mine.rbl"
+    viewer_blueprints.build("camera", ["cam0", "cam1"], []).save("mvtrack", str(rbl))
+    rrd = tmp_path / "rbl.rrd"
+    res = CliRunner().invoke(app, [str(scene), "--save", str(rrd), "--no-viewer",
+                                   "--frames", "0:22", "--set", f"background.train_frames={TRAIN}",
+                                   "--layout", str(rbl)])
+    assert res.exit_code == 0, res.output
+    assert RrdReader(rrd).blueprints()
+    missing = CliRunner().invoke(app, [str(scene), "--save", str(rrd), "--no-viewer",
+                                       "--layout", str(tmp_path / "gone.rbl")])
+    assert missing.exit_code == 2 and "no such file" in " ".join(missing.output.split())

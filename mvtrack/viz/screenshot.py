@@ -1,10 +1,12 @@
 """Headless screenshots of a recording in Rerun's own viewer (software Vulkan is enough).
 
-    save_screenshot(Path("run.rrd"), Path("overview.png"), layout=None, frame=120)
+    save_screenshot(Path("run.rrd"), Path("overview.png"), frame=120)
 
 Spawns ``rerun --headless`` (needs a Vulkan driver: a GPU, or Mesa's lavapipe from Debian's
-``mesa-vulkan-drivers``), opens the recording, optionally replaces its layout with a saved
-blueprint file, moves the time cursor and saves a PNG of the whole viewer.
+``mesa-vulkan-drivers``), opens the recording (shown in the layout embedded in it, i.e. the
+``--layout`` it was made with), moves the time cursor and saves a PNG of the whole viewer.
+(Opening a saved .rbl beside a recording leaves the viewer without an active recording in
+Rerun 0.41, so a screenshot in another layout means recording with that ``--layout``.)
 """
 
 from __future__ import annotations
@@ -27,12 +29,10 @@ def _free_port() -> int:
         return int(s.getsockname()[1])
 
 
-def save_screenshot(rrd: Path, out: Path, blueprint: Path | None = None, frame: int | None = None,
-                    settle_seconds: float = 3.0) -> Path:
-    """Write a PNG of the viewer showing ``rrd`` (at clip frame ``frame``, default the last).
-
-    ``blueprint``: an .rbl layout file to show instead of the recording's embedded one.
-    """
+def save_screenshot(rrd: Path, out: Path, frame: int | None = None,
+                    settle_seconds: float = 1.5) -> Path:
+    """Write a PNG of the viewer showing ``rrd`` in its embedded layout at clip frame ``frame``
+    (default: the last frame)."""
     from rerun.experimental import ViewerClient
 
     from mvtrack.viz.outputs import rerun_executable
@@ -47,8 +47,6 @@ def save_screenshot(rrd: Path, out: Path, blueprint: Path | None = None, frame: 
         raise ScreenshotError(f"the headless viewer did not start: {exc}") from exc
     try:
         client.open(str(rrd.resolve()))
-        if blueprint is not None:
-            client.open(str(blueprint.resolve()))
         state = _loaded(client, settle_seconds)
         if frame is None:
             frame = _last_frame(state)
