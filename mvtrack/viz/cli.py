@@ -11,6 +11,7 @@ The only module besides :mod:`mvtrack.cli` that imports typer.
 
 from __future__ import annotations
 
+import signal
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -32,7 +33,7 @@ from mvtrack.cli import (
 
 if TYPE_CHECKING:
     from mvtrack.pipeline import RunSummary
-    from mvtrack.viz.outputs import Target, Viewer
+    from mvtrack.viz.outputs import Outputs, Target, Viewer
     from mvtrack.viz.sink import LogOptions
 
 __all__ = ["app", "main"]
@@ -105,7 +106,11 @@ def view(
             except ValueError as exc:
                 raise fail(str(exc)) from None
         return
-    summary = _run_once(clip, params, set_, frames, cameras, layout, target, options)
+    previous = signal.signal(signal.SIGTERM, _raise_interrupt)  # SIGTERM acts like Ctrl-C
+    try:
+        summary = _run_once(clip, params, set_, frames, cameras, layout, target, options)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     if screenshot is not None and save is not None:
         _screenshot(save, screenshot, layout, screenshot_frame)
     if summary.interrupted:
@@ -132,27 +137,41 @@ def _run_once(clip: Path, params: Path | None, set_: list[str] | None, frames: s
             outputs = open_outputs(rec, target, blueprint)
         except (RuntimeError, ValueError) as exc:
             raise fail(str(exc)) from None
-        if outputs.url:
-            out.print(f"web viewer: {outputs.url}", highlight=False)
         try:
+            if outputs.url:
+                out.print(f"web viewer: {outputs.url}", highlight=False)
             with progress_bar("tracking") as update:
                 _, summary = record_run(opened, resolved, rng, rec, options, progress=update)
+            outputs.close()
+            _report(summary, len(names), target)
+            _keep_serving(outputs)
         finally:
             outputs.close()
-    where = f" -> {target.save}" if target.save else ""
-    out.print(f"logged {summary.frames} frames of {len(names)} cameras{where}")
-    if summary.interrupted:
-        err.print(f"interrupted after {summary.frames} frames; the recording holds them")
-    if outputs.server is not None:
-        out.print(f"serving {outputs.url} ; press Ctrl-C to stop", highlight=False)
-        try:
-            while outputs.server.poll() is None:
-                time.sleep(0.5)
-        except KeyboardInterrupt:
-            pass
-        finally:
             outputs.stop_server()
     return summary
+
+
+def _report(summary: RunSummary, cameras: int, target: Target) -> None:
+    where = f" -> {target.save}" if target.save else ""
+    out.print(f"logged {summary.frames} frames of {cameras} cameras{where}")
+    if summary.interrupted:
+        err.print(f"interrupted after {summary.frames} frames; the recording holds them")
+
+
+def _keep_serving(outputs: Outputs) -> None:
+    """Keep the served viewer up until Ctrl-C (or SIGTERM)."""
+    if outputs.server is None:
+        return
+    out.print(f"serving {outputs.url} ; press Ctrl-C to stop", highlight=False)
+    try:
+        while outputs.server.poll() is None:
+            time.sleep(0.5)
+    except KeyboardInterrupt:
+        pass
+
+
+def _raise_interrupt(signum: int, frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _screenshot(rrd: Path, png: Path, layout: str, frame: int | None) -> None:
