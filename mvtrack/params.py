@@ -278,7 +278,7 @@ class MatcherConfig(_Checked):
         0.0, 100.0,
     )
     confirm_frames: int = param(
-        5, "create: consecutive consistent frames before a new pair link is made", 1, 10000
+        3, "create: consecutive consistent frames before a new pair link is made", 1, 10000
     )
     break_after_frames: int = param(
         10, "refine: consecutive inconsistent frames that break a link", 1, 10000

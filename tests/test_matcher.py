@@ -122,18 +122,29 @@ def test_no_homography_no_create_and_fov_mode() -> None:
     assert results[0].cost.shape == (1, 1)  # costs still shown for the viewer
 
 
-def test_fov_link_confirmed_then_wrong_link_broken_after_exactly_n_frames() -> None:
+def test_fov_association_contradicted_by_h_is_rejected() -> None:
     a = targets([1, 2], [(10, 100), (60, 200)])
     b = targets([5, 6], [(110, 100), (160, 200)])
-    # FOV association links 1-6 wrongly (1 <-> 5 is right)
+    _, results = run([(a, b)], assoc={0: [(1, 6)]})
+    assert results[0].fov_added == () and results[0].fov_rejected[0][:2] == (1, 6)
+    _, results = run([(a, b)], assoc={0: [(1, 5)]})
+    assert results[0].fov_added == ((1, 5),) and results[0].links[0].source == "fov"
+
+
+def test_swapped_link_broken_after_exactly_n_frames_then_recreated() -> None:
+    a = targets([1, 2], [(10, 100), (60, 200)])
+    right = targets([5, 6], [(110, 100), (160, 200)])
+    swapped = targets([5, 6], [(160, 200), (110, 100)])  # B's labels swap people
     n = CFG.break_after_frames
-    state, results = run([(a, b)] * (n + CFG.confirm_frames + 1), assoc={0: [(1, 6)]})
-    assert results[0].fov_added == ((1, 6),)
-    for k in range(n - 1):
-        assert results[k].inconsistent[0][:2] == (1, 6) and results[k].inconsistent[0][3] == k + 1
+    frames = [(a, right)] * 3 + [(a, swapped)] * (n + CFG.confirm_frames)
+    state, results = run(frames, assoc={0: [(1, 5), (2, 6)]})
+    assert results[2].pairs() == ((1, 5), (2, 6))
+    for k in range(3, 3 + n - 1):
+        assert [x[3] for x in results[k].inconsistent] == [k - 2, k - 2]
         assert results[k].broken == ()
-    assert results[n - 1].broken[0][:2] == (1, 6)
-    assert sorted(state.links[i].pair for i in range(len(state.links))) == [(1, 5), (2, 6)]
+    assert sorted(x[:2] for x in results[3 + n - 1].broken) == [(1, 5), (2, 6)]
+    assert sorted(link.pair for link in state.links) == [(1, 6), (2, 5)]
+    assert {link.source for link in state.links} == {"create"}
 
 
 def test_fov_mode_keeps_fov_links_whatever_h_says() -> None:

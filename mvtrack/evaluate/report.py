@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from mvtrack.evaluate.labels import labels_report
 from mvtrack.evaluate.metrics import FrameRows, MaskScores, detection_scores, idf1, mask_scores
 from mvtrack.io import CameraTruth, ClipError, Truth, read_truth
 from mvtrack.io.results import TrackRows, read_tracks
@@ -117,4 +118,6 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
         "results": str(results),
         "matching": {"gate_heights": cfg.gate_heights, "min_visible": cfg.min_visible},
         "cameras": per_camera,
+        "labels": labels_report(truth, rows, Path(results), processed_frames(results),
+                                cfg.gate_heights, cfg.min_visible),
     }

@@ -13,7 +13,8 @@ so one threshold works at every depth. With it the pair's one-to-one links are
   within ``reattach_window_frames`` (occlusion recovery, splits);
 - created by a gated Hungarian assignment of the free targets, once a pair stays assigned for
   ``confirm_frames`` frames (in-scene entrances, no FOV event needed);
-- added from FOV associations (the only source with ``method == "fov"`` or before H exists).
+- added from FOV associations (the only source with ``method == "fov"`` or before H exists;
+  with H, an association it contradicts is rejected).
 
 Targets projected inside the other frame without a partner are "expected but unseen".
 
@@ -117,6 +118,7 @@ class MatchResult:
     inconsistent:  (a, b, d, streak) links inconsistent this frame but not yet broken
     broken:        (a, b, d) links broken this frame (refine)
     fov_added:     (a, b) links made from FOV associations this frame
+    fov_rejected:  (a, b, d) FOV associations rejected because H contradicts them
     reattached:    (a, b, d) links re-attached this frame
     created:       (a, b, d) links created this frame (after ``confirm_frames``)
     pending:       (a, b, frames, d) gated assignments not yet confirmed
@@ -137,6 +139,7 @@ class MatchResult:
     inconsistent: tuple[tuple[int, int, float, int], ...] = ()
     broken: tuple[tuple[int, int, float], ...] = ()
     fov_added: tuple[Pair, ...] = ()
+    fov_rejected: tuple[tuple[int, int, float], ...] = ()
     reattached: tuple[tuple[int, int, float], ...] = ()
     created: tuple[tuple[int, int, float], ...] = ()
     pending: tuple[tuple[int, int, int, float], ...] = ()
@@ -200,6 +203,7 @@ class _Frame:
     inconsistent: list[tuple[int, int, float, int]] = field(default_factory=list)
     broken: list[tuple[int, int, float]] = field(default_factory=list)
     fov_added: list[Pair] = field(default_factory=list)
+    fov_rejected: list[tuple[int, int, float]] = field(default_factory=list)
     reattached: list[tuple[int, int, float]] = field(default_factory=list)
     created: list[tuple[int, int, float]] = field(default_factory=list)
 
@@ -229,14 +233,25 @@ def _prune(state: MatchState, f: _Frame, frame: int, window: int) -> tuple[dict,
     return lost_a, lost_b
 
 
-def _add_fov(f: _Frame, associations: Sequence[tuple], frame: int) -> None:
-    """FOV associations between present, unlinked targets become links."""
+def _add_fov(f: _Frame, associations: Sequence[tuple], frame: int,
+             gate: tuple[np.ndarray, float] | None) -> None:
+    """FOV associations between present, unlinked targets become links.
+
+    ``gate``: (cost, threshold) when H drives matching: an association H contradicts
+    (d >= threshold) is rejected at once rather than linked and broken later.
+    """
     for assoc in associations:
         a, b = int(assoc[0]), int(assoc[1])
         linked = any(link.a == a or link.b == b for link in f.links)
-        if a in f.index_a and b in f.index_b and not linked:
-            f.links.append(Link(a, b, "fov", frame))
-            f.fov_added.append((a, b))
+        if a not in f.index_a or b not in f.index_b or linked:
+            continue
+        if gate is not None:
+            d = float(gate[0][f.index_a[a], f.index_b[b]])
+            if d >= gate[1]:
+                f.fov_rejected.append((a, b, d))
+                continue
+        f.links.append(Link(a, b, "fov", frame))
+        f.fov_added.append((a, b))
 
 
 def _refine(f: _Frame, cost: np.ndarray, cfg: MatcherConfig) -> None:
@@ -316,7 +331,6 @@ def match_step(state: MatchState, inputs: MatchInputs,
     index_b = {int(label): i for i, label in enumerate(b.labels.tolist())}
     f = _Frame([], index_a, index_b)
     lost = _prune(state, f, frame, cfg.reattach_window_frames)
-    _add_fov(f, inputs.associations, frame)
     use_h = cfg.method == "homography" and isinstance(inputs.homography, HomographyEstimate)
     pending: dict[Pair, int] = {}
     shown: list[tuple[int, int, int, float]] = []
@@ -325,6 +339,8 @@ def match_step(state: MatchState, inputs: MatchInputs,
         cost, a_in_b, b_in_a = transfer_costs(inputs.homography.H_b_from_a, a, b)
     else:
         cost, a_in_b, b_in_a = np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((0, 2))
+    _add_fov(f, inputs.associations, frame,
+             (cost, cfg.match_threshold_heights) if use_h else None)
     if use_h:
         _refine(f, cost, cfg)
         _reattach(f, cost, state, lost, cfg, frame)
@@ -349,7 +365,8 @@ def match_step(state: MatchState, inputs: MatchInputs,
         a_labels=a.labels.copy(), b_labels=b.labels.copy(),
         cost=cost, proj_a_in_b=a_in_b, proj_b_in_a=b_in_a,
         confirmed=tuple(f.confirmed), inconsistent=tuple(f.inconsistent),
-        broken=tuple(f.broken), fov_added=tuple(f.fov_added), reattached=tuple(f.reattached),
+        broken=tuple(f.broken), fov_added=tuple(f.fov_added),
+        fov_rejected=tuple(f.fov_rejected), reattached=tuple(f.reattached),
         created=tuple(f.created), pending=tuple(shown), lost=tuple(f.lost),
         unseen_in_b=unseen[0], unseen_in_a=unseen[1], links=links,
     )
