@@ -73,6 +73,7 @@ def _log_events(sink: RerunSink, name: str, pr: Any, result: FrameResult) -> Non
         if xy is not None:
             by_cam.setdefault(ev.camera, []).append((xy, f"{ev.kind} {ev.side}"))
     for cam, items in by_cam.items():
+        sink.fov_event_cameras.add(cam)
         rec.log(paths.camera_layer(cam, "fov_events"), rr.Points2D(
             to_viewer(np.array([p for p, _ in items])), labels=[t for _, t in items],
             colors=(255, 255, 255), radii=6.0, draw_order=12.0))

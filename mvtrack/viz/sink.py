@@ -145,6 +145,7 @@ class RerunSink:
         self._meta_capacity = 0
         self._links: dict[tuple[str, str], set[tuple[int, int]]] = {}
         self._foot_sums: dict[str, tuple[float, int]] = {}
+        self.fov_event_cameras: set[str] = set()  # cameras with FOV events drawn this frame
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self.frames_logged = 0
@@ -221,8 +222,11 @@ class RerunSink:
             rec.log(paths.stage_ms(stage), rr.Scalars(ms))
         pairs = result.pairs
         if self.options.pairs:
+            shown, self.fov_event_cameras = self.fov_event_cameras, set()
             for key, pr in pairs.items():
                 self._log_pair(key, pr, result)
+            for gone in shown - self.fov_event_cameras:  # events show on their frame only
+                rec.log(paths.camera_layer(gone, "fov_events"), rr.Points2D(np.zeros((0, 2))))
         if self.options.ground:
             self._log_ground(result, pairs)
         self.frames_logged += 1
