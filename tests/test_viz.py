@@ -135,6 +135,12 @@ def test_metrics_and_events(recording: dict[str, Any]) -> None:
     assert "TextLog:text" in recording[paths.EVENTS]["columns"]
     assert recording[paths.EVENTS]["rows"] > 0
     assert recording[paths.GROUND_TARGETS]["rows"] == N_FRAMES
+    assert recording[paths.GROUND_TRAILS]["rows"] == N_FRAMES
+    for cam in ("cam0", "cam1"):
+        assert "LineStrips2D:strips" in recording[paths.camera_layer(cam, "cues")]["columns"]
+        assert recording[paths.camera_layer(cam, "cues")]["rows"] == N_FRAMES
+    costs = recording[paths.pair_costs("cam0", "cam1")]
+    assert "TextDocument:text" in costs["columns"] and costs["rows"] == N_FRAMES
     assert recording[paths.GROUND_TRUTH]["rows"] == N_FRAMES  # metres: truth/ground.json
     assert recording[paths.ground_fov("cam0")]["rows"] == N_FRAMES
     assert recording[paths.SUMMARY]["static"] == 1

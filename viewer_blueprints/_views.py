@@ -10,10 +10,8 @@ from mvtrack.viz import paths
 
 __all__ = ["camera_view", "events_view", "ground_view", "metrics_view", "time_panel"]
 
-OVERLAYS = ("image", "labels", "targets", "feet", "fov_events")
-"""Layers of the main camera view, bottom to top (the frame and what was found on it).
-
-``cues`` joins them once the cueing stage exists (the sink cannot log it before)."""
+OVERLAYS = ("image", "labels", "targets", "feet", "fov_events", "cues")
+"""Layers of the main camera view, bottom to top (the frame and what was found on it)."""
 
 
 def camera_view(cam: str, extra: Sequence[str] = (), name: str | None = None) -> rrb.View:

@@ -24,6 +24,7 @@ def _pair_tab(a: str, b: str) -> rrb.Container:
                            contents=[paths.pair_layer(a, b, layer) for layer in
                                      paths.PAIR_LAYERS]),
         rrb.TimeSeriesView(origin=f"{paths.METRICS}/transfer_error_px", name="transfer error"),
+        rrb.TextDocumentView(origin=paths.pair_costs(a, b), name="association costs"),
     )
     bottom = rrb.Horizontal(hough, series, events_view(), column_shares=[1.3, 1.0, 1.0])
     return rrb.Vertical(cams, bottom, row_shares=[1.6, 1.0], name=paths.pair_name(a, b))

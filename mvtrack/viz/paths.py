@@ -30,7 +30,7 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/projected/{other}  Points2D: ``other``'s targets projected into ``cam``
                                     through the pair's homography, class id = meta
     /cameras/{cam}/cues             LineStrips2D: metas expected in ``cam`` but unseen, as hollow
-                                    rings (reserved: logged once the cueing stage exists)
+                                    rings at their projections, class id = meta
 
 Per overlapping pair ``a-b`` (names in the clip's overlap order)::
 
@@ -44,11 +44,14 @@ Per overlapping pair ``a-b`` (names in the clip's overlap order)::
     /pairs/{a}-{b}/quality_px       Scalars: median symmetric transfer error of the markers
     /pairs/{a}-{b}/markers          Scalars: markers in the store
     /pairs/{a}-{b}/links            Scalars: linked target pairs (FOV associations alive)
+    /pairs/{a}-{b}/costs            TextDocument: the matcher's cost matrix (symmetric transfer
+                                    distance in body heights, A targets x B targets)
 
 Ground-plane map (reference camera's pixels, or metres with ``truth/ground.json``)::
 
     /ground/fov/{cam}               LineStrips2D: camera ``cam``'s frame outline on the ground
     /ground/targets                 Points2D: every target's ground point, class id = meta
+    /ground/trails                  LineStrips2D: each live meta-target's recent ground track
     /ground/truth                   Points2D: true positions (metres, truth clips only)
 
 Events and metrics::
@@ -77,6 +80,7 @@ __all__ = [
     "FRAME_TIMELINE",
     "GROUND",
     "GROUND_TARGETS",
+    "GROUND_TRAILS",
     "GROUND_TRUTH",
     "MASK_LAYER",
     "METRICS",
@@ -95,6 +99,7 @@ __all__ = [
     "hough_titles",
     "log_ms",
     "pair",
+    "pair_costs",
     "pair_layer",
     "pair_name",
     "stage_ms",
@@ -111,6 +116,7 @@ CAMERAS = "/cameras"
 GROUND = "/ground"
 GROUND_TARGETS = "/ground/targets"
 GROUND_TRUTH = "/ground/truth"
+GROUND_TRAILS = "/ground/trails"
 EVENTS = "/events"
 METRICS = "/metrics"
 SUMMARY = "/metrics/summary"
@@ -165,6 +171,11 @@ def pair_layer(a: str, b: str, layer: str) -> str:
     if layer not in PAIR_LAYERS:
         raise ValueError(f"unknown pair layer {layer!r}")
     return f"{pair(a, b)}/{layer}"
+
+
+def pair_costs(a: str, b: str) -> str:
+    """``/pairs/{a}-{b}/costs``: the matcher's cost matrix."""
+    return f"{pair(a, b)}/costs"
 
 
 def hough(a: str, b: str) -> str:

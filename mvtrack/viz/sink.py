@@ -45,6 +45,7 @@ __all__ = ["APP_ID", "LogOptions", "RerunSink", "clip_document", "new_recording"
 
 APP_ID = "mvtrack"
 
+_TRAIL_FRAMES = 100  # ground-map trail length per meta-target, frames
 _FOOT_GATE_HEIGHTS = 0.5  # viewer metric: a foot matches truth within half the person's height
 
 
@@ -146,6 +147,7 @@ class RerunSink:
         self._links: dict[tuple[str, str], set[tuple[int, int]]] = {}
         self._foot_sums: dict[str, tuple[float, int]] = {}
         self.fov_event_cameras: set[str] = set()  # cameras with FOV events drawn this frame
+        self._trails: dict[int, list[np.ndarray]] = {}  # meta -> recent ground points
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self.frames_logged = 0
@@ -227,6 +229,7 @@ class RerunSink:
                 self._log_pair(key, pr, result)
             for gone in shown - self.fov_event_cameras:  # events show on their frame only
                 rec.log(paths.camera_layer(gone, "fov_events"), rr.Points2D(np.zeros((0, 2))))
+            self._log_multi(result)
         if self.options.ground:
             self._log_ground(result, pairs)
         self.frames_logged += 1
@@ -315,6 +318,27 @@ class RerunSink:
 
         log_pair(self, key, pr, result)
 
+    def _log_multi(self, result: FrameResult) -> None:
+        from mvtrack.viz.multi import log_cues, log_matches, log_meta
+
+        for key, match in result.matches.items():
+            log_matches(self, key, match)
+        log_meta(self, result.meta)
+        log_cues(self, list(result.cameras), result.cues)
+
+    def _log_trails(self, pts: np.ndarray, ids: np.ndarray, result: FrameResult) -> None:
+        """Each meta-target's mean ground point appended to its bounded trail, then drawn."""
+        live = set(result.meta.live) if result.meta is not None else set(ids.tolist())
+        for m in np.unique(ids).tolist():
+            trail = self._trails.setdefault(m, [])
+            trail.append(pts[ids == m].mean(axis=0))
+            del trail[:-_TRAIL_FRAMES]
+        self._trails = {m: t for m, t in self._trails.items() if m in live}
+        keep = [(m, t) for m, t in self._trails.items() if len(t) > 1]
+        self.rec.log(paths.GROUND_TRAILS, rr.LineStrips2D(
+            [self._g(np.array(t)) for _, t in keep], class_ids=[m for m, _ in keep],
+            radii=1.0 if self._ground_from_ref is None else 0.04))
+
     def _log_ground(self, result: FrameResult, pairs: Mapping[tuple[str, str], Any]) -> None:
         from mvtrack.viz.pairs import homographies_to_reference
 
@@ -342,6 +366,7 @@ class RerunSink:
                 ids.append(result.metas[name])
         allpts = np.concatenate(pts) if pts else np.zeros((0, 2))
         allids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
+        self._log_trails(allpts, allids, result)
         radius = 4.0 if to_out is None else 0.15
         self.rec.log(paths.GROUND_TARGETS, rr.Points2D(self._g(allpts), class_ids=allids,
                                                        radii=radius,
