@@ -364,7 +364,7 @@ def _pets_frames(folder: Path, n: int) -> list[Any]:
     import cv2
 
     cap = cv2.VideoCapture(str(folder / "View_001.avi"))
-    frames = []
+    frames: list[Any] = []
     while len(frames) < n:
         ok, frame = cap.read()
         if not ok:
