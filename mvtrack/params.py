@@ -186,6 +186,13 @@ class FovConfig(_Checked):
     hough_height_frac: float = param(
         0.1, "a point votes for lines within this fraction of its target's height", 0.0, 10.0
     )
+    hough_repeat_heights: float = param(
+        0.5,
+        "a point's vote is divided by 1 + the earlier points of its label within this many of "
+        "its heights (people standing still)",
+        0.0,
+        100.0,
+    )
     hough_rho_step_px: float = param(2.0, "Hough distance bin size in pixels", 0.1, 100.0)
     hough_margin_frac: float = param(
         0.25, "Hough distance range: half the image diagonal times (1 + this)", 0.0, 10.0
@@ -199,6 +206,16 @@ class FovConfig(_Checked):
     hough_num_peaks: int = param(5, "peaks reported per accumulator", 1, 100)
     hough_inlier_px: float = param(
         6.0, "points this close to the peak line refine it by total least squares", 0.1, 1000.0
+    )
+    # A target touches a side while its feet are still half a body width (left, right) inside:
+    # the feet cross the border later (leave) or earlier (enter) than the event. The crosser's
+    # feet track in the edge camera, fitted over crossing_fit_frames fully-inside frames, gives
+    # the crossing time; the other camera's feet are recorded at that time (history kept).
+    crossing_fit_frames: int = param(
+        4, "fully-inside frames of the crosser whose feet give the border-crossing time", 2, 100
+    )
+    crossing_max_shift_frames: int = param(
+        30, "largest shift of an event's recording time to the border crossing (frames)", 0, 1000
     )
     fov_match_heights: float = param(
         0.35,
@@ -227,9 +244,37 @@ class MarkerConfig(_Checked):
         8.0, "test (c): one of the feet must move this far from the link's last marker",
         0.0, 10000.0,
     )
-    grid_cols: int = param(16, "marker store: grid columns over the first camera's frame", 1, 1000)
+    grid_cols: int = param(32, "marker store: grid columns over the first camera's frame", 1, 1000)
     grid_rows: int = param(
-        12, "marker store: grid rows (one marker per cell, newest wins)", 1, 1000
+        24, "marker store: grid rows (one marker per cell, newest wins)", 1, 1000
+    )
+    # Co-motion bootstrap [beyond]: until a valid homography exists, every pair of fully-inside
+    # targets on a marker frame is a candidate correspondence; a RANSAC homography that several
+    # distinct target pairs follow (one-to-one, mostly inliers) links them and their candidates
+    # become markers. It finds the first H in scenes with few FOV events; 0 pairs turns it off.
+    comotion_min_pairs: int = param(
+        3, "bootstrap: distinct one-to-one target pairs that must follow the hypothesis (0 = off)",
+        0, 100,
+    )
+    comotion_min_support: int = param(
+        5, "bootstrap: inlier candidates each supporting target pair needs", 1, 100000
+    )
+    comotion_min_frac: float = param(
+        0.6, "bootstrap: fraction of a supporting pair's candidates that must be inliers",
+        0.0, 1.0,
+    )
+    comotion_threshold_px: float = param(
+        4.0, "bootstrap: inlier symmetric transfer error (px), at least", 0.01, 1000.0
+    )
+    comotion_threshold_heights: float = param(
+        0.2, "bootstrap: inlier error may reach this fraction of the pair's mean height", 0.0, 10.0
+    )
+    comotion_iterations: int = param(400, "bootstrap: RANSAC samples per search", 1, 100000)
+    comotion_every_frames: int = param(
+        25, "bootstrap: search the pool this often while no homography is valid", 1, 100000
+    )
+    comotion_pool_size: int = param(
+        1500, "bootstrap: candidates kept (newest)", 4, 1000000
     )
 
 
@@ -239,8 +284,11 @@ class HomographyConfig(_Checked):
 
     method: str = param("robust", "'robust' (RANSAC, then DLT on inliers) or 'dlt' (plain)")
     min_markers: int = param(10, "degeneracy: fewest markers for a homography", 4, 100000)
+    min_marker_groups: int = param(
+        3, "degeneracy: distinct target pairs (links) the inlier markers must come from", 1, 1000
+    )
     min_spread_ratio: float = param(
-        0.15, "degeneracy: smaller/larger singular value of centred markers, each camera",
+        0.1, "degeneracy: smaller/larger singular value of centred markers, each camera",
         0.0, 1.0,
     )
     min_area_px2: float = param(
@@ -249,6 +297,13 @@ class HomographyConfig(_Checked):
     ransac_iterations: int = param(300, "RANSAC samples of 4 markers", 1, 100000)
     ransac_threshold_px: float = param(
         4.0, "RANSAC inlier: symmetric transfer error below this (px)", 0.01, 1000.0
+    )
+    ransac_threshold_heights: float = param(
+        0.15,
+        "RANSAC inlier: the threshold grows to this fraction of the markers' median height "
+        "(large frames, unsynchronized cameras)",
+        0.0,
+        10.0,
     )
     ransac_seed: int = param(0, "seed of the RANSAC generator (fits are reproducible)", 0)
     refit_growth_frac: float = param(

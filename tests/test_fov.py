@@ -92,7 +92,9 @@ def test_hough_recovers_drawn_lines_among_outliers(seed: int, theta: float, n: i
     on = on[(on[:, 0] >= 0) & (on[:, 0] < 320) & (on[:, 1] >= 0) & (on[:, 1] < 240)]
     if len(on) < 8:
         return
-    outliers = rng.uniform([0, 0], SIZE, (len(on) // 2, 2))
+    outliers = rng.uniform([0, 0], SIZE, (4 * len(on), 2))
+    # A random point that lands on the line is not an outlier: keep those well off it.
+    outliers = outliers[np.abs(outliers @ [a, b] + c) > 8.0][: len(on) // 2]
     result = hough_points(np.r_[on, outliers], SIZE, CFG)
     assert result is not None
     assert np.isclose(np.hypot(*result.line[:2]), 1.0)

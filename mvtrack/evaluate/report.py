@@ -16,6 +16,7 @@ import numpy as np
 
 from mvtrack.evaluate.labels import labels_report
 from mvtrack.evaluate.metrics import FrameRows, MaskScores, detection_scores, idf1, mask_scores
+from mvtrack.evaluate.pairs import pairs_metrics_for_results
 from mvtrack.io import CameraTruth, ClipError, Truth, read_truth
 from mvtrack.io.results import TrackRows, read_tracks
 
@@ -113,7 +114,7 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
                         f"(results: {sorted(set(rows.camera.tolist()))}, "
                         f"truth: {sorted(truth.cameras)})")
     per_camera = {c: _camera_metrics(truth, rows, Path(results), c, cfg) for c in cameras}
-    return {
+    metrics: dict[str, Any] = {
         "clip": str(clip),
         "results": str(results),
         "matching": {"gate_heights": cfg.gate_heights, "min_visible": cfg.min_visible},
@@ -121,3 +122,7 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
         "labels": labels_report(truth, rows, Path(results), processed_frames(results),
                                 cfg.gate_heights, cfg.min_visible),
     }
+    pairs = pairs_metrics_for_results(Path(clip), Path(results), truth)
+    if pairs is not None:
+        metrics["pairs"] = pairs
+    return metrics

@@ -19,6 +19,7 @@ import numpy as np
 from scipy import ndimage
 
 from mvtrack.params import FovConfig
+from mvtrack.stages.homography import apply_homography
 from mvtrack.stages.targets import SIDES, CameraTargets
 
 __all__ = [
@@ -30,11 +31,15 @@ __all__ = [
     "TouchHistory",
     "add_event",
     "best_match",
+    "border_distance",
+    "crossing_time",
     "detect_events",
     "estimate_line",
+    "event_match",
     "event_votes",
     "hough_line",
     "hough_points",
+    "interpolate_targets",
     "line_distances",
     "mask_touching_sides",
     "new_slot",
@@ -96,8 +101,9 @@ class FovEventPoints:
     """What one event recorded: ``seen_in``'s targets at that frame.
 
     labels (M,) int64, feet (M, 2) float64 px, heights (M,) float64 px, weights (M,) float64
-    (1 / (1 + earlier events in the slot holding that label): a person who stands still, or is
-    present at many events, cannot outvote the line of many different people).
+    (1 / (1 + earlier points of the same label within ``hough_repeat_heights`` of its heights):
+    a person who stands still through many events cannot outvote the line of many crossings,
+    while a walker present at many events, somewhere new each time, keeps its full vote).
     """
 
     frame: int
@@ -105,6 +111,10 @@ class FovEventPoints:
     feet: np.ndarray
     heights: np.ndarray
     weights: np.ndarray
+    event_target: int = -1
+    """Label of the target that crossed the edge, in the edge camera (-1: unknown)."""
+    crosser_foot: tuple[float, float] | None = None
+    """The crosser's feet in the edge camera's pixels when they were on the border."""
 
 
 @dataclass(frozen=True)
@@ -235,24 +245,38 @@ def event_votes(
     return acc
 
 
-def add_event(slot: FovSlot, frame: int, seen: CameraTargets, cfg: FovConfig) -> FovSlot:
+def add_event(
+    slot: FovSlot,
+    frame: int,
+    seen: CameraTargets,
+    cfg: FovConfig,
+    event_target: int = -1,
+    crosser_foot: tuple[float, float] | None = None,
+) -> FovSlot:
     """The slot with one more event: the feet of all of ``seen_in``'s targets (bounded).
+
+    ``seen`` may be the targets at the moment the crosser's feet were on the edge (see
+    :mod:`mvtrack.stages.pair`); ``event_target`` is the crosser's label in the edge camera.
 
     The accumulator is updated incrementally; the oldest event beyond ``max_fov_events`` is
     dropped and its votes removed.
     """
-    earlier: dict[int, int] = {}
-    for e in slot.events:
-        for label in e.labels.tolist():
-            earlier[label] = earlier.get(label, 0) + 1
     labels = seen.labels.astype(np.int64, copy=True)
-    weights = np.array([1.0 / (1 + earlier.get(x, 0)) for x in labels.tolist()])
+    feet = np.array(seen.feet, np.float64).reshape(-1, 2)
+    repeats = np.zeros(len(labels))
+    for e in slot.events:
+        for k, j in zip(*np.nonzero(labels[:, None] == e.labels[None, :]), strict=True):
+            reach = cfg.hough_repeat_heights * max(float(seen.heights_px[k]), 1.0)
+            repeats[k] += float(np.hypot(*(feet[k] - e.feet[j])) <= reach)
+    weights = 1.0 / (1.0 + repeats)
     ev = FovEventPoints(
         frame,
         labels,
-        np.array(seen.feet, np.float64),
+        feet,
         np.array(seen.heights_px, np.float64),
         weights,
+        int(event_target),
+        crosser_foot,
     )
     for arr in (ev.labels, ev.feet, ev.heights, ev.weights):
         arr.flags.writeable = False
@@ -332,8 +356,9 @@ def hough_line(
 
     ``points`` (P, 2) are the feet that voted and ``owner`` (P,) their event index. The
     accumulator is smoothed (``hough_smooth_bins``, wrapping around in theta), its strongest
-    peak is the line, refined twice by total least squares on each event's point nearest it
-    within ``hough_inlier_px``. None when nothing voted.
+    peak is the line, refined three times by total least squares on each event's point nearest
+    it within a tolerance that starts at ``hough_inlier_px`` and shrinks to three robust sigmas
+    of the residuals. None when nothing voted.
     """
     thetas, rhos, _ = _grid(size, cfg)
     if accumulator.shape != (len(thetas), len(rhos)):
@@ -351,11 +376,16 @@ def hough_line(
     peak_line = _line_from_peak(peaks[0, 0], peaks[0, 1], centre)
     line = peak_line
     pts = np.asarray(points, np.float64).reshape(-1, 2)
-    for _ in range(2):
-        near = _nearest_per_event(line, pts, owner, cfg.hough_inlier_px)
+    tol = cfg.hough_inlier_px
+    for _ in range(3):
+        near = _nearest_per_event(line, pts, owner, tol)
         if near.sum() < 2:
             break
         line = _tls_line(pts[near], np.ones(int(near.sum())), peak_line)
+        # Tighten to 3 robust sigmas of the inliers' residuals (never below a third of the
+        # tolerance), so a stray point near the line does not tilt the refinement.
+        resid = np.abs(pts[near] @ line[:2] + line[2])
+        tol = float(np.clip(3 * 1.4826 * np.median(resid), tol / 3, tol))
     n_inliers = int(_nearest_per_event(line, pts, owner, cfg.hough_inlier_px).sum())
     acc.flags.writeable = False
     return HoughResult(acc, thetas, rhos, centre, peaks, peak_line, line, n_inliers)
@@ -374,15 +404,44 @@ def hough_points(
     return hough_line(acc, pts, np.arange(len(pts)), size, cfg)
 
 
-def estimate_line(slot: FovSlot, cfg: FovConfig, frame: int) -> FovSlot:
-    """Re-estimate the slot's line from its accumulator once it has ``min_fov_events`` events."""
+def _crosser_points(
+    slot: FovSlot, H_seen_from_edge: np.ndarray, cfg: FovConfig
+) -> np.ndarray:
+    """(K, 2) per event, the point the homography says is the crosser (within the gate)."""
+    out = []
+    for e in slot.events:
+        if e.crosser_foot is None or len(e.feet) == 0:
+            continue
+        x = apply_homography(H_seen_from_edge, np.array([e.crosser_foot]))[0]
+        d = np.hypot(*(e.feet - x).T) / np.maximum(e.heights, 1.0)
+        k = int(np.argmin(d))
+        if d[k] <= cfg.fov_match_heights:
+            out.append(e.feet[k])
+    return np.array(out).reshape(-1, 2)
+
+
+def estimate_line(
+    slot: FovSlot, cfg: FovConfig, frame: int, H_seen_from_edge: np.ndarray | None = None
+) -> FovSlot:
+    """Re-estimate the slot's line from its accumulator once it has ``min_fov_events`` events.
+
+    With a homography from the edge camera to the seen one (once the pair has learned it), each
+    event's crosser is known (the point nearest the mapped ``crosser_foot``): when at least
+    ``min_fov_events`` events have one, the line is their total-least-squares fit instead of
+    the Hough peak, which bystanders near the line can pull away.
+    """
     if slot.n_events < cfg.min_fov_events or slot.accumulator is None:
         return slot
     points, owner = slot.points()
     hough = hough_line(slot.accumulator, points, owner, slot.size, cfg)
     if hough is None:
         return slot
-    a, b, c = (float(v) for v in hough.line)
+    best = hough.line
+    if H_seen_from_edge is not None:
+        crossers = _crosser_points(slot, H_seen_from_edge, cfg)
+        if len(crossers) >= max(cfg.min_fov_events, 2):
+            best = _tls_line(crossers, np.ones(len(crossers)), hough.line)
+    a, b, c = (float(v) for v in best)
     line = FovLine(slot.seen_in, slot.edge_of, slot.side, (a, b, c), slot.n_events, frame)
     return replace(slot, line=line, hough=hough)
 
@@ -400,14 +459,90 @@ def best_match(
     taken: frozenset[int],
     cfg: FovConfig,
 ) -> int | None:
-    """Label of the target nearest the line (in body heights) within ``fov_match_heights``.
+    """Label of the only free target within ``fov_match_heights`` body heights of the line.
 
-    Targets whose labels are in ``taken`` (already linked elsewhere) are not candidates.
+    Targets whose labels are in ``taken`` (already linked elsewhere) are not candidates; when
+    several free targets are within the gate the match is ambiguous and none is made.
     """
     d = line_distances(line, targets)
     free = np.array([label not in taken for label in targets.labels.tolist()], bool)
     if not free.any():
         return None
     d = np.where(free, d, np.inf)
-    k = int(np.argmin(d))
-    return int(targets.labels[k]) if d[k] <= cfg.fov_match_heights else None
+    return _unique_within(d, targets.labels, cfg.fov_match_heights)
+
+
+def _unique_within(d: np.ndarray, labels: np.ndarray, gate: float) -> int | None:
+    """The label whose distance is within ``gate`` when exactly one is (else ambiguous: None)."""
+    inside = np.flatnonzero(d <= gate)
+    return int(labels[inside[0]]) if len(inside) == 1 else None
+
+
+def border_distance(feet: np.ndarray, side: str, size: tuple[int, int]) -> np.ndarray:
+    """(N,) float64 px from each [x, y] foot point to the frame's outer edge on ``side``.
+
+    Positive inside the frame. The edge is at -0.5 / W - 0.5 / H - 0.5 (pixel centres at
+    integers); "top" is measured to y = -0.5 too, though feet never reach it.
+    """
+    pts = np.asarray(feet, np.float64).reshape(-1, 2)
+    width, height = size
+    return {
+        "left": pts[:, 0] + 0.5,
+        "right": width - 0.5 - pts[:, 0],
+        "top": pts[:, 1] + 0.5,
+        "bottom": height - 0.5 - pts[:, 1],
+    }[side]
+
+
+def crossing_time(samples: np.ndarray, event_frame: int, kind: str, cfg: FovConfig) -> float:
+    """When the crosser's feet were on the border: a line fitted to its distance over time.
+
+    ``samples`` (K, 2) rows [frame, distance to the border, px] from frames in which the target
+    was fully inside. Leaving targets approach the border (the crossing follows the event),
+    entering ones move away from it (the crossing precedes it). Falls back to ``event_frame``
+    with fewer than two samples or motion the wrong way; the shift is at most
+    ``crossing_max_shift_frames``.
+    """
+    s = np.asarray(samples, np.float64).reshape(-1, 2)
+    if len(s) < 2 or np.ptp(s[:, 0]) == 0:
+        return float(event_frame)
+    slope, intercept = np.polyfit(s[:, 0], s[:, 1], 1)
+    if (kind == "leave" and slope >= 0) or (kind == "enter" and slope <= 0):
+        return float(event_frame)
+    shift = -intercept / slope - event_frame
+    limit = cfg.crossing_max_shift_frames
+    return float(event_frame + np.clip(shift, -limit, limit))
+
+
+def interpolate_targets(
+    before: tuple[int, CameraTargets], after: tuple[int, CameraTargets], t: float
+) -> CameraTargets:
+    """Targets at fractional frame ``t`` between two frames (before[0] <= t <= after[0]).
+
+    Labels present in both frames are interpolated linearly; the others are taken from the
+    nearer frame when they are present there.
+    """
+    (f0, ta), (f1, tb) = before, after
+    u = 0.0 if f1 == f0 else (t - f0) / (f1 - f0)
+    near, far = (ta, tb) if u <= 0.5 else (tb, ta)
+    feet, heights, boxes = near.feet.copy(), near.heights_px.copy(), near.boxes_xywh.copy()
+    for k, label in enumerate(near.labels.tolist()):
+        j = far.index_of(label)
+        if j is None:
+            continue
+        w_far = u if near is ta else 1.0 - u
+        feet[k] = (1 - w_far) * near.feet[k] + w_far * far.feet[j]
+        heights[k] = (1 - w_far) * near.heights_px[k] + w_far * far.heights_px[j]
+        boxes[k] = (1 - w_far) * near.boxes_xywh[k] + w_far * far.boxes_xywh[j]
+    return CameraTargets(near.labels.copy(), feet, heights, boxes, near.size)
+
+
+def event_match(
+    line: tuple[float, float, float], event: FovEventPoints, cfg: FovConfig
+) -> int | None:
+    """Label of the event's only point within ``fov_match_heights`` body heights of the line."""
+    if len(event.labels) == 0:
+        return None
+    a, b, c = line
+    d = np.abs(event.feet @ np.array([a, b]) + c) / np.maximum(event.heights, 1.0)
+    return _unique_within(d, event.labels, cfg.fov_match_heights)

@@ -26,6 +26,7 @@ __all__ = [
     "dlt",
     "fit_homography",
     "normalizing_transform",
+    "solve_homography",
     "spread",
     "transfer_errors",
 ]
@@ -186,6 +187,20 @@ def _matrix_problem(H: np.ndarray, pts_a: np.ndarray) -> str:
     return ""
 
 
+def solve_homography(pts_a: np.ndarray, pts_b: np.ndarray) -> np.ndarray | None:
+    """(3, 3) normalized-DLT H_b_from_a of >= 4 points, or None when the points are (nearly)
+    collinear or coincident in either camera, or the solution is unusable (singular, not
+    finite, folds the points across the horizon). No minimum-count or area rule: for samples.
+    """
+    pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
+    if len(pts_a) < 4 or len(pts_a) != len(pts_b):
+        return None
+    if spread(pts_a)[0] < 1e-3 or spread(pts_b)[0] < 1e-3:
+        return None
+    H = dlt(pts_a, pts_b)
+    return None if _matrix_problem(H, pts_a) else H
+
+
 def _ransac(
     pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig, rng: np.random.Generator
 ) -> np.ndarray:
@@ -209,18 +224,32 @@ def _ransac(
     return best
 
 
+def _groups_problem(groups: np.ndarray | None, inliers: np.ndarray, cfg: HomographyConfig) -> str:
+    """Why the inliers come from too few target pairs, or ""."""
+    if groups is None:
+        return ""
+    n_groups = len(np.unique(np.asarray(groups)[inliers]))
+    if n_groups < cfg.min_marker_groups:
+        return f"inliers come from {n_groups} target pairs, need {cfg.min_marker_groups}"
+    return ""
+
+
 def fit_homography(
     pts_a: np.ndarray,
     pts_b: np.ndarray,
     cfg: HomographyConfig,
     rng: np.random.Generator | None = None,
+    groups: np.ndarray | None = None,
 ) -> HomographyEstimate | HomographyFailure:
     """H_b_from_a from markers (pts_a[i] ↔ pts_b[i], each (N, 2) float64 px).
 
     ``cfg.method`` "dlt": normalized DLT on all markers. "robust": RANSAC (``rng``, default
     seeded from ``cfg.ransac_seed``), then normalized DLT on the consensus set, whose inliers are
     re-selected once with the refined H. The degeneracy rule is applied to the markers and again
-    to the inliers. Returns a falsy :class:`HomographyFailure` when no trustworthy H exists.
+    to the inliers. ``groups`` (N,) int: which target pair (link) dropped each marker; the
+    inliers must then come from at least ``cfg.min_marker_groups`` of them (the markers of one
+    or two straight walks can be fitted by a wrong H). Returns a falsy
+    :class:`HomographyFailure` when no trustworthy H exists.
     """
     pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
     if len(pts_a) != len(pts_b):
@@ -244,7 +273,7 @@ def fit_homography(
         if reason:
             return HomographyFailure(f"inliers: {reason}", n)
     H = dlt(pts_a[inliers], pts_b[inliers])
-    problem = _matrix_problem(H, pts_a[inliers])
+    problem = _matrix_problem(H, pts_a[inliers]) or _groups_problem(groups, inliers, cfg)
     if problem:
         return HomographyFailure(problem, n)
     errors = transfer_errors(H, pts_a, pts_b)

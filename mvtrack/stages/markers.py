@@ -14,8 +14,8 @@ and keeps spatial coverage.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -23,11 +23,17 @@ from mvtrack.params import MarkerConfig
 from mvtrack.stages.targets import CameraTargets
 
 __all__ = [
+    "Candidates",
+    "Comotion",
     "Marker",
     "MarkerResult",
     "MarkerState",
+    "candidates_add",
+    "comotion_search",
+    "marker_groups",
     "marker_points",
     "marker_step",
+    "markers_add",
     "markers_init",
 ]
 
@@ -41,6 +47,9 @@ class Marker:
     b_label: int
     x_a: tuple[float, float]
     x_b: tuple[float, float]
+    h_a: float = 0.0
+    h_b: float = 0.0
+    """The two targets' heights in px (0: unknown)."""
 
 
 @dataclass(frozen=True)
@@ -90,6 +99,13 @@ def marker_points(state: MarkerState) -> tuple[np.ndarray, np.ndarray]:
     if not markers:
         return np.zeros((0, 2)), np.zeros((0, 2))
     return np.array([m.x_a for m in markers]), np.array([m.x_b for m in markers])
+
+
+def marker_groups(state: MarkerState) -> np.ndarray:
+    """(N,) int64: per stored marker (:func:`marker_points` order), an id of its link."""
+    markers = sorted(state.cells.values(), key=lambda m: m.frame)
+    ids: dict[tuple[int, int], int] = {}
+    return np.array([ids.setdefault((m.a_label, m.b_label), len(ids)) for m in markers], np.int64)
 
 
 def _update_heights(
@@ -157,7 +173,10 @@ def marker_step(
             if ra is None or rb is None:
                 continue
             reason = _test_link(link, (ra, rb), inside, heights, cfg)
-            marker = Marker(frame, link[0], link[1], _pt(a.feet[ra]), _pt(b.feet[rb]))
+            marker = Marker(
+                frame, link[0], link[1], _pt(a.feet[ra]), _pt(b.feet[rb]),
+                float(a.heights_px[ra]), float(b.heights_px[rb]),
+            )
             if not reason and not _moved(last.get(link), marker, cfg):
                 reason = "no motion"
             if reason:
@@ -191,3 +210,142 @@ def _moved(previous: Marker | None, marker: Marker, cfg: MarkerConfig) -> bool:
     da = np.hypot(marker.x_a[0] - previous.x_a[0], marker.x_a[1] - previous.x_a[1])
     db = np.hypot(marker.x_b[0] - previous.x_b[0], marker.x_b[1] - previous.x_b[1])
     return bool(max(da, db) > cfg.marker_min_move_px)
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """Co-present feet pairs pooled while no homography is known (the co-motion bootstrap).
+
+    frame (P,) int64; labels (P, 2) int64 [A label, B label]; x_a, x_b (P, 2) float64 px;
+    heights (P, 2) float64 px [in A, in B].
+    Every pair of targets fully inside both frames on a marker frame is a candidate; the
+    true pairs among them are consistent with one homography, the others are not.
+    """
+
+    frame: np.ndarray
+    labels: np.ndarray
+    x_a: np.ndarray
+    x_b: np.ndarray
+    heights: np.ndarray
+
+    @classmethod
+    def empty(cls) -> Candidates:
+        return cls(np.zeros(0, np.int64), np.zeros((0, 2), np.int64), np.zeros((0, 2)),
+                   np.zeros((0, 2)), np.zeros((0, 2)))
+
+    def gates_px(self, cfg: MarkerConfig) -> np.ndarray:
+        """(P,) inlier gate of each candidate: the px floor or a fraction of its heights."""
+        return np.maximum(cfg.comotion_threshold_px,
+                          cfg.comotion_threshold_heights * self.heights.mean(axis=1))
+
+    def __len__(self) -> int:
+        return len(self.frame)
+
+
+@dataclass(frozen=True)
+class Comotion:
+    """A homography hypothesis supported by several target pairs moving together.
+
+    H_b_from_a: (3, 3) fitted to the supported pairs' candidates;  links: supported
+    (A label, B label) pairs;  markers: their inlier candidates as markers
+    """
+
+    H_b_from_a: np.ndarray
+    links: tuple[tuple[int, int], ...]
+    markers: tuple[Marker, ...]
+
+
+def candidates_add(
+    pool: Candidates, a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int
+) -> Candidates:
+    """The pool with every (A, B) pair of fully-inside targets of this frame (bounded)."""
+    if frame % cfg.marker_every_frames or not len(a) or not len(b):
+        return pool
+    ia = np.flatnonzero(_inside(a, cfg))
+    ib = np.flatnonzero(_inside(b, cfg))
+    if not len(ia) or not len(ib):
+        return pool
+    ga, gb = (g.ravel() for g in np.meshgrid(ia, ib, indexing="ij"))
+    keep = slice(-cfg.comotion_pool_size, None)
+    return Candidates(
+        np.r_[pool.frame, np.full(len(ga), frame)][keep],
+        np.r_[pool.labels, np.c_[a.labels[ga], b.labels[gb]]][keep].astype(np.int64),
+        np.r_[pool.x_a, a.feet[ga]][keep],
+        np.r_[pool.x_b, b.feet[gb]][keep],
+        np.r_[pool.heights, np.c_[a.heights_px[ga], b.heights_px[gb]]][keep],
+    )
+
+
+def _supported(
+    pool: Candidates, inlier: np.ndarray, cfg: MarkerConfig
+) -> tuple[list[tuple[int, int]], np.ndarray]:
+    """Label pairs with enough inliers, mostly inliers, one-to-one; and their inlier rows."""
+    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    n_in = np.bincount(inverse, inlier, len(pairs))
+    n_all = np.bincount(inverse, None, len(pairs))
+    ok = (n_in >= cfg.comotion_min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+    chosen: list[tuple[int, int]] = []
+    for k in np.flatnonzero(ok)[np.argsort(-n_in[ok], kind="stable")]:
+        pa, pb = int(pairs[k, 0]), int(pairs[k, 1])
+        if all(pa != x and pb != y for x, y in chosen):
+            chosen.append((pa, pb))
+    rows = inlier & np.array([(int(x), int(y)) in chosen for x, y in pool.labels], bool)
+    return chosen, rows
+
+
+def comotion_search(
+    pool: Candidates,
+    cfg: MarkerConfig,
+    fit: Callable[[np.ndarray, np.ndarray], np.ndarray | None],
+    errors: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+    rng: np.random.Generator,
+) -> Comotion | None:
+    """RANSAC over the pool for a homography that at least ``comotion_min_pairs`` distinct,
+    one-to-one target pairs follow (each with ``comotion_min_support`` inliers, and mostly
+    inliers; a candidate is an inlier within :meth:`Candidates.gates_px`). ``fit(pts_a,
+    pts_b)`` returns H or None (degenerate); ``errors(H, pts_a, pts_b)`` the per-point
+    transfer error in px. None when no hypothesis is supported.
+    """
+    n = len(pool)
+    if n < 4:
+        return None
+    best: tuple[int, list[tuple[int, int]], np.ndarray] | None = None
+    gates = pool.gates_px(cfg)
+    for _ in range(cfg.comotion_iterations):
+        sample = rng.choice(n, size=4, replace=False)
+        la, lb = pool.labels[sample, 0], pool.labels[sample, 1]
+        if len(set(la.tolist())) < 4 or len(set(lb.tolist())) < 4:
+            continue
+        H = fit(pool.x_a[sample], pool.x_b[sample])
+        if H is None:
+            continue
+        inlier = errors(H, pool.x_a, pool.x_b) < gates
+        chosen, rows = _supported(pool, inlier, cfg)
+        if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
+            best = (int(rows.sum()), chosen, rows)
+    if best is None:
+        return None
+    _, chosen, rows = best
+    H = fit(pool.x_a[rows], pool.x_b[rows])
+    if H is None:
+        return None
+    chosen, rows = _supported(pool, errors(H, pool.x_a, pool.x_b) < gates, cfg)
+    if len(chosen) < cfg.comotion_min_pairs:
+        return None
+    markers = tuple(
+        Marker(int(f), int(la), int(lb), _pt(xa), _pt(xb), float(h[0]), float(h[1]))
+        for f, (la, lb), xa, xb, h in zip(
+            pool.frame[rows], pool.labels[rows], pool.x_a[rows], pool.x_b[rows],
+            pool.heights[rows], strict=True,
+        )
+    )
+    return Comotion(H, tuple(sorted(chosen)), markers)
+
+
+def markers_add(state: MarkerState, markers: Sequence[Marker], cfg: MarkerConfig) -> MarkerState:
+    """The store with ``markers`` added (oldest first, one per grid cell, newest wins)."""
+    cells = dict(state.cells)
+    for m in sorted(markers, key=lambda m: m.frame):
+        cells[_cell(m.x_a, state.size_a, cfg)] = m
+    return replace(state, cells=cells, n_dropped=state.n_dropped + len(markers))

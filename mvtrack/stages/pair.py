@@ -24,12 +24,23 @@ import numpy as np
 from mvtrack.params import FovConfig, HomographyConfig, MarkerConfig, Params
 from mvtrack.stages import fov
 from mvtrack.stages.fov import FovEvent, FovSlot
-from mvtrack.stages.homography import HomographyEstimate, HomographyFailure, fit_homography
+from mvtrack.stages.homography import (
+    HomographyEstimate,
+    HomographyFailure,
+    fit_homography,
+    solve_homography,
+    transfer_errors,
+)
 from mvtrack.stages.markers import (
+    Candidates,
     MarkerResult,
     MarkerState,
+    candidates_add,
+    comotion_search,
+    marker_groups,
     marker_points,
     marker_step,
+    markers_add,
     markers_init,
 )
 from mvtrack.stages.targets import SIDES, CameraTargets
@@ -39,6 +50,7 @@ __all__ = [
     "PairLinks",
     "PairResult",
     "PairState",
+    "PendingEvent",
     "pair_init",
     "pair_step",
     "pair_summary",
@@ -100,6 +112,21 @@ class PairLinks:
 
 
 @dataclass(frozen=True)
+class PendingEvent:
+    """An FOV event waiting for the moment its crosser's feet were on the border.
+
+    edge:      index (0 = A, 1 = B) of the camera the event happened in
+    samples:   (frame, px from the border) of the crosser's feet while fully inside
+    crossing:  the fractional frame at which the other camera's feet are recorded, once known
+    """
+
+    event: FovEvent
+    edge: int
+    samples: tuple[tuple[float, float], ...] = ()
+    crossing: float | None = None
+
+
+@dataclass(frozen=True)
 class PairState:
     """Everything one pair has learned. Frozen; steps return a new state.
 
@@ -110,6 +137,11 @@ class PairState:
     fit_markers:    marker count at the last fit;  fit_dropped: markers ever dropped then
     fit_frame:      frame of the last fit attempt (-1: none)
     n_events:       FOV events so far, both cameras
+    first_valid:    (frame, markers fitted, markers dropped, FOV events) when the first valid
+                    homography was made, else None
+    history:        the last frames' (frame, A targets, B targets), for recording events late
+    pending:        events not yet recorded in their point set (crossing time not reached)
+    candidates:     co-motion bootstrap pool, kept only while no homography is valid
     """
 
     names: tuple[str, str]
@@ -123,6 +155,10 @@ class PairState:
     fit_dropped: int = 0
     fit_frame: int = -1
     n_events: int = 0
+    first_valid: tuple[int, int, int, int] | None = None
+    history: tuple[tuple[int, CameraTargets, CameraTargets], ...] = ()
+    pending: tuple[PendingEvent, ...] = ()
+    candidates: Candidates = field(default_factory=Candidates.empty)
 
 
 @dataclass(frozen=True)
@@ -167,11 +203,90 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
     )
 
 
+def _samples(
+    history: tuple[tuple[int, CameraTargets, CameraTargets], ...],
+    edge: int,
+    ev: FovEvent,
+    margin_px: float,
+) -> tuple[tuple[float, float], ...]:
+    """(frame, px from the border) of the event's target in ``history`` frames, fully inside."""
+    out = []
+    for frame, *cams in history:
+        cam = cams[edge]
+        k = cam.index_of(ev.target)
+        if k is None or cam.touches(margin_px)[k].any():
+            continue
+        d = float(fov.border_distance(cam.feet[k : k + 1], ev.side, cam.size)[0])
+        out.append((float(frame), d))
+    return tuple(out)
+
+
+def _decide(p: PendingEvent, state: PairState, frame: int, cfg: FovConfig) -> PendingEvent:
+    """Fix the crossing time once enough fully-inside samples exist (or waiting is over)."""
+    if p.crossing is not None:
+        return p
+    ev = p.event
+    if ev.side == "top":  # feet never reach the top border: record at the event
+        return replace(p, crossing=float(ev.frame))
+    if ev.kind == "leave":
+        before = [h for h in state.history if h[0] < ev.frame]
+        samples = _samples(tuple(before), p.edge, ev, cfg.edge_margin_px)
+        samples = samples[-cfg.crossing_fit_frames :]
+    else:
+        after = [h for h in state.history if h[0] >= ev.frame]
+        samples = _samples(tuple(after), p.edge, ev, cfg.edge_margin_px)
+        samples = samples[: cfg.crossing_fit_frames]
+        if len(samples) < cfg.crossing_fit_frames and frame - ev.frame < cfg.crossing_fit_frames:
+            return p
+    t = fov.crossing_time(np.array(samples).reshape(-1, 2), ev.frame, ev.kind, cfg)
+    return replace(p, samples=samples, crossing=t)
+
+
+def _targets_at(state: PairState, seen: int, t: float) -> CameraTargets | None:
+    """The ``seen`` camera's targets at fractional frame ``t`` from the history (None: gone)."""
+    frames = [h[0] for h in state.history]
+    if not frames or t < frames[0] or t > frames[-1]:
+        return None
+    k = int(np.searchsorted(frames, t, side="right")) - 1
+    k1 = min(k + 1, len(frames) - 1)
+    h0, h1 = state.history[k], state.history[k1]
+    t0 = h0[1] if seen == 0 else h0[2]
+    t1 = h1[1] if seen == 0 else h1[2]
+    return fov.interpolate_targets((h0[0], t0), (h1[0], t1), t)
+
+
+def _crosser_foot(state: PairState, p: PendingEvent) -> tuple[float, float] | None:
+    """The crosser's feet in its own camera at the crossing time, or in the kept frame nearest
+    it (a leaving target may be gone by then); None when it is in no kept frame."""
+    t = p.crossing if p.crossing is not None else float(p.event.frame)
+    own = _targets_at(state, p.edge, t)
+    k = None if own is None else own.index_of(p.event.target)
+    if own is not None and k is not None:
+        return float(own.feet[k, 0]), float(own.feet[k, 1])
+    best = None
+    for frame, *cams in state.history:
+        j = cams[p.edge].index_of(p.event.target)
+        if j is not None and (best is None or abs(frame - t) < best[0]):
+            best = (abs(frame - t), cams[p.edge].feet[j])
+    return None if best is None else (float(best[1][0]), float(best[1][1]))
+
+
+def _H_seen_from_edge(state: PairState, seen: int) -> np.ndarray | None:
+    """The valid homography from the edge camera to camera ``seen`` (0 = A), else None."""
+    est = state.homography
+    if not isinstance(est, HomographyEstimate):
+        return None
+    return est.H_b_from_a if seen == 1 else np.linalg.inv(est.H_b_from_a)
+
+
 def _learn_lines(
     state: PairState, cams: tuple[CameraTargets, CameraTargets], cfg: FovConfig, frame: int
-) -> tuple[dict[SlotKey, FovSlot], tuple[FovEvent, ...], list[SlotKey], tuple]:
-    """Events in both cameras, the slots they feed, and which lines were re-estimated."""
-    slots = dict(state.slots)
+) -> tuple[PairState, tuple[FovEvent, ...], list[SlotKey]]:
+    """Events in both cameras, the slots they feed, and which lines were re-estimated.
+
+    An event is recorded in its point set at the moment its crosser's feet were on the border
+    (:func:`fov.crossing_time`), from the kept history of the other camera's targets.
+    """
     touches = []
     events: list[FovEvent] = []
     for i in (0, 1):
@@ -180,40 +295,115 @@ def _learn_lines(
         )
         touches.append(hist)
         events += evs
-        for ev in evs:  # an event in camera i feeds the line seen in the other camera
-            key = (1 - i, ev.side)
-            slots[key] = fov.add_event(slots[key], frame, cams[1 - i], cfg)
-    changed = sorted({(1 - state.names.index(ev.camera), ev.side) for ev in events})
-    for key in changed:
-        slots[key] = fov.estimate_line(slots[key], cfg, frame)
-    return slots, tuple(events), changed, (touches[0], touches[1])
+    keep = cfg.crossing_max_shift_frames + cfg.crossing_fit_frames + 2
+    history = (*state.history, (frame, cams[0], cams[1]))[-keep:]
+    state = replace(state, touches=(touches[0], touches[1]), history=history)
+    new = [PendingEvent(ev, state.names.index(ev.camera)) for ev in events]
+    slots = dict(state.slots)
+    waiting = []
+    changed = set()
+    for old in (*state.pending, *new):
+        p = _decide(old, state, frame, cfg)
+        if p.crossing is None or p.crossing > frame:
+            waiting.append(p)
+            continue
+        key = (1 - p.edge, p.event.side)  # an event in one camera feeds the line in the other
+        seen = _targets_at(state, 1 - p.edge, p.crossing) or cams[1 - p.edge]
+        slots[key] = fov.add_event(
+            slots[key], p.event.frame, seen, cfg, p.event.target, _crosser_foot(state, p)
+        )
+        changed.add(key)
+    for key in sorted(changed):
+        slots[key] = fov.estimate_line(slots[key], cfg, frame, _H_seen_from_edge(state, key[0]))
+    state = replace(state, slots=slots, pending=tuple(waiting))
+    return state, tuple(events), sorted(changed)
+
+
+def _link(
+    links: PairLinks,
+    edge: int,
+    crosser: int,
+    seen_label: int | None,
+    present: tuple[set[int], set[int]],
+) -> tuple[PairLinks, tuple[int, int] | None]:
+    """Link the edge camera's ``crosser`` to ``seen_label`` when both are present and free."""
+    if seen_label is None or crosser not in present[edge] or seen_label not in present[1 - edge]:
+        return links, None
+    a_label, b_label = (seen_label, crosser) if edge == 1 else (crosser, seen_label)
+    if a_label in links.b_of_a or links.a_of(b_label) is not None:
+        return links, None
+    return links.add(a_label, b_label, -1), (a_label, b_label)
 
 
 def _associate(
     events: tuple[FovEvent, ...],
-    slots: dict[SlotKey, FovSlot],
+    state: PairState,
+    changed: list[SlotKey],
     links: PairLinks,
     cams: tuple[CameraTargets, CameraTargets],
     cfg: FovConfig,
 ) -> tuple[PairLinks, list[tuple[int, int, FovEvent]]]:
-    """At each event, link its target to the other camera's target nearest the learned line."""
+    """FOV associations: at each event, its target and the other camera's target nearest the
+    learned line; and when a line is (re-)estimated, each recorded event's crosser and its own
+    point on the line (if both targets are still present). Linked targets are not candidates.
+    """
     made = []
     present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
     for ev in events:
-        i = 1 if ev.camera == slots[(0, ev.side)].edge_of else 0  # camera of the event
-        line = slots[(1 - i, ev.side)].line
-        linked = links.b_of_a.values() if i == 1 else links.b_of_a.keys()
-        if line is None or ev.target in linked:
+        edge = state.names.index(ev.camera)
+        line = state.slots[(1 - edge, ev.side)].line
+        if line is None:
             continue
-        other_linked = links.b_of_a.keys() if i == 1 else links.b_of_a.values()
-        taken = frozenset(label for label in other_linked if label in present[1 - i])
-        match = fov.best_match(line.line, cams[1 - i], taken, cfg)
-        if match is None:
+        linked = links.b_of_a.keys() if edge == 1 else links.b_of_a.values()
+        taken = frozenset(label for label in linked if label in present[1 - edge])
+        match = fov.best_match(line.line, cams[1 - edge], taken, cfg)
+        links, pair = _link(links, edge, ev.target, match, present)
+        if pair is not None:
+            made.append((*pair, ev))
+    for key in changed:
+        slot = state.slots[key]
+        if slot.line is None:
             continue
-        a_label, b_label = (match, ev.target) if i == 1 else (ev.target, match)
-        links = links.add(a_label, b_label, ev.frame)
-        made.append((a_label, b_label, ev))
+        edge = 1 - key[0]
+        for rec in slot.events:
+            match = fov.event_match(slot.line.line, rec, cfg)
+            links, pair = _link(links, edge, rec.event_target, match, present)
+            if pair is not None:
+                ev = FovEvent(rec.frame, state.names[edge], rec.event_target, key[1], "line")
+                made.append((*pair, ev))
     return links, made
+
+
+def _bootstrap(
+    state: PairState,
+    cams: tuple[CameraTargets, CameraTargets],
+    links: PairLinks,
+    cfg: PairConfigs,
+    frame: int,
+) -> tuple[Candidates, PairLinks, MarkerState, list[tuple[int, int, FovEvent]]]:
+    """Co-motion bootstrap while no homography is valid (see :class:`MarkerConfig`).
+
+    Pools candidate pairs; every ``comotion_every_frames`` searches them. A supported
+    hypothesis links its present target pairs (associations of kind "comotion", side "none")
+    and adds its inlier candidates to the marker store; the pool is then emptied.
+    """
+    mcfg = cfg.markers
+    if state.homography or mcfg.comotion_min_pairs == 0:
+        return Candidates.empty(), links, state.markers, []
+    pool = candidates_add(state.candidates, cams[0], cams[1], mcfg, frame)
+    if frame % mcfg.comotion_every_frames or len(pool) < 4:
+        return pool, links, state.markers, []
+    rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
+    found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
+    if found is None:
+        return pool, links, state.markers, []
+    present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
+    made = []
+    for a_label, b_label in found.links:
+        links, pair = _link(links, 1, b_label, a_label, present)
+        if pair is not None:
+            made.append((*pair, FovEvent(frame, state.names[1], b_label, "none", "comotion")))
+    return Candidates.empty(), links, markers_add(state.markers, found.markers, mcfg), made
 
 
 def _maybe_fit(
@@ -232,8 +422,12 @@ def _maybe_fit(
     if not due:
         return current, None
     pts_a, pts_b = marker_points(markers)
+    heights = [0.5 * (m.h_a + m.h_b) for m in markers.cells.values()]
+    gate = max(cfg.ransac_threshold_px, cfg.ransac_threshold_heights * float(np.median(heights)))
+    cfg = replace(cfg, ransac_threshold_px=gate)
     rng = np.random.default_rng([cfg.ransac_seed, frame])
-    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng), from_frame=frame)
+    groups = marker_groups(markers)
+    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups), from_frame=frame)
     return (attempt if attempt or not current else current), attempt
 
 
@@ -258,31 +452,49 @@ def pair_step(
         if tuple(cam.size) != tuple(size):
             raise ValueError(f"camera {name}: targets have size {cam.size}, pair expects {size}")
     cams = (a, b)
-    slots, events, changed, touches = _learn_lines(state, cams, cfg.fov, frame)
+    learned, events, changed = _learn_lines(state, cams, cfg.fov, frame)
     base = state.links if links is None else PairLinks.of(links, state.links, frame)
     base = base.prune(set(a.labels.tolist()), set(b.labels.tolist()))
-    new_links, made = _associate(events, slots, base, cams, cfg.fov)
+    new_links, made = _associate(events, learned, changed, base, cams, cfg.fov)
+    pool, new_links, boot_markers, boot = _bootstrap(state, cams, new_links, cfg, frame)
+    made += boot
+    learned = replace(learned, markers=boot_markers, candidates=pool)
+    made_now = {(x, y) for x, y, _ in made}
+    new_links = PairLinks(
+        new_links.b_of_a,
+        {k: (frame if k in made_now else v) for k, v in new_links.since.items()},
+    )
     marker_links = new_links.pairs() if links is None else base.pairs()
-    markers, marker_result = marker_step(state.markers, marker_links, a, b, cfg.markers, frame)
+    markers, marker_result = marker_step(learned.markers, marker_links, a, b, cfg.markers, frame)
     homography, attempt = _maybe_fit(state, markers, cfg.homography, frame)
     fitted = attempt is not None
-    new_state = PairState(
-        names=state.names,
-        sizes=state.sizes,
-        touches=touches,
-        slots=slots,
+    n_events = state.n_events + len(events)
+    first_valid = state.first_valid
+    if first_valid is None and homography:
+        first_valid = (frame, len(markers.cells), markers.n_dropped, n_events)
+    if attempt:  # a new homography tells each recorded event's crosser: refine every line
+        refit = replace(learned, homography=homography)
+        slots = {
+            key: fov.estimate_line(slot, cfg.fov, frame, _H_seen_from_edge(refit, key[0]))
+            if slot.line is not None else slot
+            for key, slot in learned.slots.items()
+        }
+        learned = replace(learned, slots=slots)
+    new_state = replace(
+        learned,
         links=new_links,
         markers=markers,
         homography=homography,
         fit_markers=len(markers.cells) if fitted else state.fit_markers,
         fit_dropped=markers.n_dropped if fitted else state.fit_dropped,
         fit_frame=frame if fitted else state.fit_frame,
-        n_events=state.n_events + len(events),
+        n_events=n_events,
+        first_valid=first_valid,
     )
     result = PairResult(
         frame=frame,
         events=events,
-        slots=tuple(slots.values()),
+        slots=tuple(learned.slots.values()),
         reestimated=tuple(changed),
         associations=tuple(made),
         links=new_links.pairs(),
@@ -294,7 +506,12 @@ def pair_step(
 
 
 def pair_summary(state: PairState) -> dict[str, Any]:
-    """The pair's ``pairs.json`` object (FORMATS.md)."""
+    """The pair's ``pairs.json`` object (FORMATS.md), with two optional keys.
+
+    ``sizes``: [[width, height], [width, height]] of the two cameras; ``H_first``: null, or
+    ``{"frame", "markers", "markers_dropped", "fov_events"}`` when the first valid homography
+    was made (markers in the fit, markers dropped so far, FOV events so far).
+    """
     est = state.homography
     lines = [
         {
@@ -315,4 +532,9 @@ def pair_summary(state: PairState) -> dict[str, Any]:
         "markers": len(state.markers.cells),
         "fov_events": state.n_events,
         "fov_lines": lines,
+        "sizes": [list(size) for size in state.sizes],
+        "H_first": None
+        if state.first_valid is None
+        else dict(zip(("frame", "markers", "markers_dropped", "fov_events"), state.first_valid,
+                      strict=True)),
     }
