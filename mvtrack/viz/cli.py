@@ -80,7 +80,7 @@ def view(
     port: Annotated[int, typer.Option(help="gRPC port of the viewer.")] = 9876,
     web_port: Annotated[int, typer.Option(help="HTTP port of the served web viewer.")] = 9090,
     lossless: Annotated[bool, typer.Option(help="Log frames losslessly (not JPEG).")] = False,
-    jpeg_quality: Annotated[int, typer.Option(help="JPEG quality of frames.")] = 75,
+    jpeg_quality: Annotated[int, typer.Option(help="JPEG quality of frames.")] = 70,
     background_every: Annotated[int, typer.Option(
         help="Log the background every N frames (0: never).")] = 25,
     watch: Annotated[Path | None, typer.Option(

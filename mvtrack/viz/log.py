@@ -45,8 +45,8 @@ class ImageOptions:
     """
 
     lossless: bool = False
-    jpeg_quality: int = 75
-    distance_quality: int = 70
+    jpeg_quality: int = 70
+    distance_quality: int = 60
 
 
 def to_viewer(points_xy: np.ndarray) -> np.ndarray:

@@ -24,7 +24,8 @@ if TYPE_CHECKING:
 __all__ = ["homographies_to_reference", "hough_image", "hough_mosaic", "log_pair"]
 
 _TILE_W, _TILE_H = 180, 120  # one accumulator in the mosaic, mosaic pixels
-_CUE_RADIUS_PX = 8.0  # hollow ring radius of projected / expected targets, viewer pixels
+_CUE_RADIUS_PX = 8.0  # hollow ring radius of projected targets, viewer pixels
+_NEAR_FRAME_FRAC = 0.1  # projections drawn up to this fraction of the frame outside it
 
 
 def _valid_H(pr: Any) -> np.ndarray | None:
@@ -203,7 +204,12 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
         metas = result.metas[src]
         hom = np.c_[t.feet, np.ones(len(t))] @ M.T
         ok = hom[:, 2] > 1e-9
-        proj = hom[ok, :2] / hom[ok, 2:3]
+        proj = np.full((len(t), 2), np.inf)
+        proj[ok] = hom[ok, :2] / hom[ok, 2:3]
+        w, h = result.cameras[dst].targets.size  # only what lands in (or near) dst's frame:
+        mx, my = _NEAR_FRAME_FRAC * w, _NEAR_FRAME_FRAC * h  # far points would zoom the view out
+        ok = (proj[:, 0] > -mx) & (proj[:, 0] < w + mx) & (proj[:, 1] > -my) & (proj[:, 1] < h + my)
+        proj = proj[ok]
         sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D(
             [to_viewer(r) for r in ring_strips(proj, _CUE_RADIUS_PX)], class_ids=metas[ok],
             labels=[f"m{m} from {src}" for m in metas[ok].tolist()], radii=1.0,

@@ -30,7 +30,7 @@ def _free_port() -> int:
 
 
 def save_screenshot(rrd: Path, out: Path, frame: int | None = None,
-                    settle_seconds: float = 1.5) -> Path:
+                    settle_seconds: float = 4.0) -> Path:
     """Write a PNG of the viewer showing ``rrd`` in its embedded layout at clip frame ``frame``
     (default: the last frame)."""
     from rerun.experimental import ViewerClient
