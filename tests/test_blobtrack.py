@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -100,6 +102,42 @@ def test_combination_merge_plus_split_off_piece() -> None:
     assert r.splits == ((2, (3,)),)
     assert r.label_image[30, 68] == 3
     assert r.label_image[30, 15] == 1 and r.label_image[30, 55] == 2
+
+
+def test_stacked_fragment_targets_reunite_when_their_blobs_join() -> None:
+    # a person falls apart into head (label 1) and body (label 2), then is whole again
+    frames = [
+        blobs((20, 10, 29, 19), (18, 24, 31, 70)),
+        blobs((22, 10, 31, 19), (20, 24, 33, 70)),
+        blobs((24, 10, 33, 19), (22, 20, 35, 70)),  # the neck is back: one blob
+        blobs((26, 10, 35, 19), (24, 20, 37, 70)),
+    ]
+    _, res = run(frames)
+    assert res[0].labels.tolist() == [1, 2]
+    assert res[2].labels.tolist() == [2] and res[2].merges == ()
+    assert res[2].reunions == ((2, (1,)),) and res[2].retirements == (1,)
+    assert res[3].labels.tolist() == [2] and res[3].births == ()
+    # switched off: an ordinary merge that keeps both labels
+    off = replace(CFG, reunite_fragments=False)
+    state = tracker_init()
+    for mvo in frames[:3]:
+        state, r = track_masks(state, mvo, None, off)
+    assert r.labels.tolist() == [1, 2] and r.merges == ((1, (1, 2)),)
+
+
+def test_split_off_fragment_stays_with_its_parent() -> None:
+    frames = [
+        blobs((20, 10, 33, 70)),
+        blobs((22, 10, 35, 70)),
+        blobs((24, 10, 37, 19), (24, 24, 37, 72)),  # the head separates: a fragment, not a child
+        blobs((26, 10, 39, 19), (26, 24, 39, 72), (60, 24, 73, 72)),
+    ]
+    _, res = run(frames)
+    assert res[2].labels.tolist() == [1] and res[2].births == () and res[2].splits == ()
+    img = res[2].label_image
+    assert img is not None and img[15, 30] == img[50, 30] == 1
+    np.testing.assert_allclose(res[2].boxes_xywh, [[23.5, 9.5, 14.0, 63.0]])
+    assert res[3].labels.tolist() == [1, 2] and res[3].births == (2,)
 
 
 def crossing(t: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

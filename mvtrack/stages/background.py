@@ -52,6 +52,8 @@ from functools import lru_cache
 
 import cv2
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import BackgroundConfig
 from mvtrack.stages.median import lower_median
@@ -61,6 +63,7 @@ __all__ = [
     "BackgroundState",
     "BlobTable",
     "background_step",
+    "stacked_boxes",
     "train_background",
 ]
 
@@ -421,6 +424,98 @@ def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray) -
     return fg_shadow
 
 
+def stacked_boxes(
+    box_xywh: np.ndarray,
+    x_overlap_frac: float,
+    y_gap_frac: float,
+    y_overlap_frac: float,
+    max_aspect: float,
+) -> np.ndarray:
+    """(K, K) bool: pairs of boxes stacked like the parts of one upright person.
+
+    box_xywh: (K, 4) float64 boxes. A pair is stacked when their column ranges share at least
+    ``x_overlap_frac`` of the narrower width, the vertical gap between them is at most
+    ``y_gap_frac`` of the taller height, their row ranges share at most ``y_overlap_frac`` of
+    the shorter height (people side by side are not stacked) and the union box is at most
+    ``max_aspect`` times taller than wide (a far person above a near one's head is not).
+    The diagonal is True. Shared with the tracker, which reunites fragment targets.
+    """
+    x0, y0, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
+    x1, y1 = x0 + w, y0 + h
+    over_x = np.minimum(x1[:, None], x1) - np.maximum(x0[:, None], x0)
+    over_y = np.minimum(y1[:, None], y1) - np.maximum(y0[:, None], y0)
+    union_w = np.maximum(x1[:, None], x1) - np.minimum(x0[:, None], x0)
+    union_h = np.maximum(y1[:, None], y1) - np.minimum(y0[:, None], y0)
+    stacked = (
+        (over_x >= x_overlap_frac * np.minimum(w[:, None], w))
+        & (-over_y <= y_gap_frac * np.maximum(h[:, None], h))
+        & (over_y <= y_overlap_frac * np.minimum(h[:, None], h))
+        & (union_h <= max_aspect * union_w)
+    )
+    np.fill_diagonal(stacked, True)
+    return stacked
+
+
+def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
+    """(K, K) bool: components that look like fragments of one person: stacked
+    (:func:`stacked_boxes`) or one box inside the other (at least ``group_contained_frac`` of
+    the smaller box's area). box_xywh: (K, 4) float64."""
+    stacked = stacked_boxes(
+        box_xywh,
+        cfg.group_x_overlap_frac,
+        cfg.group_y_gap_frac,
+        cfg.group_y_overlap_frac,
+        cfg.group_max_aspect,
+    )
+    x0, y0, w, h = box_xywh.T
+    over_x = np.minimum(x0[:, None] + w[:, None], x0 + w) - np.maximum(x0[:, None], x0)
+    over_y = np.minimum(y0[:, None] + h[:, None], y0 + h) - np.maximum(y0[:, None], y0)
+    inter = np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
+    area = w * h
+    return stacked | (inter >= cfg.group_contained_frac * np.minimum(area[:, None], area))
+
+
+def _group_fragments(
+    comp_labels: np.ndarray, stats: np.ndarray, cfg: BackgroundConfig
+) -> tuple[np.ndarray, np.ndarray]:
+    """Join the connected components that are fragments of one person into one blob.
+
+    comp_labels: (H,W) int32 components 0..K; stats: (K+1, 5) OpenCV component stats.
+    Returns the blob label image (H,W) int32 0..G and the blobs' stats (G+1, 5) in the same
+    layout (box of the union, summed area). Blob labels follow the order of each blob's first
+    component, so with no links the components are returned unchanged.
+    """
+    k = stats.shape[0] - 1
+    if k < 2 or not cfg.group_fragments:
+        return comp_labels, stats
+    links = _fragment_links(stats[1:, :4].astype(np.float64), cfg)
+    n_groups, group = connected_components(csr_matrix(links), directed=False)
+    if n_groups == k:
+        return comp_labels, stats
+    _, first = np.unique(group, return_index=True)
+    rank = np.empty(n_groups, np.int32)
+    rank[np.argsort(first, kind="stable")] = np.arange(1, n_groups + 1, dtype=np.int32)
+    lut = np.concatenate([np.zeros(1, np.int32), rank[group]])
+    x0, y0 = stats[1:, 0], stats[1:, 1]
+    x1, y1 = x0 + stats[1:, 2], y0 + stats[1:, 3]
+    out = np.zeros((n_groups + 1, 5), stats.dtype)
+    out[0] = stats[0]
+    g = lut[1:]
+    big = np.iinfo(stats.dtype).max
+    lo_x, lo_y = np.full(n_groups + 1, big), np.full(n_groups + 1, big)
+    hi_x, hi_y = np.zeros(n_groups + 1, stats.dtype), np.zeros(n_groups + 1, stats.dtype)
+    np.minimum.at(lo_x, g, x0)
+    np.minimum.at(lo_y, g, y0)
+    np.maximum.at(hi_x, g, x1)
+    np.maximum.at(hi_y, g, y1)
+    out[1:, cv2.CC_STAT_LEFT] = lo_x[1:]
+    out[1:, cv2.CC_STAT_TOP] = lo_y[1:]
+    out[1:, cv2.CC_STAT_WIDTH] = hi_x[1:] - lo_x[1:]
+    out[1:, cv2.CC_STAT_HEIGHT] = hi_y[1:] - lo_y[1:]
+    out[1:, cv2.CC_STAT_AREA] = np.bincount(g, weights=stats[1:, 4], minlength=n_groups + 1)[1:]
+    return lut[comp_labels], out
+
+
 def _candidates(dist8: np.ndarray, shadow: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
     """D_B > T_L, opened with a square kernel, shadow pixels removed: (H,W) bool."""
     raw = dist8 > _u8_floor(cfg.t_low)
@@ -459,9 +554,10 @@ def background_step(
     planes = _hsv_planes(frame, state.modality)
     dist8, shadow = _distance_and_shadow(planes, state.model, cfg)
     candidate = _candidates(dist8, shadow, cfg)
-    _, blob_labels, stats, _ = cv2.connectedComponentsWithStatsWithAlgorithm(
+    _, comp_labels, comp_stats, _ = cv2.connectedComponentsWithStatsWithAlgorithm(
         candidate.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
     )
+    blob_labels, stats = _group_fragments(comp_labels, comp_stats, cfg)
     assert planes[2] is not None
     flow_gray = _flow_gray(planes[2], cfg)
     factor = frame.shape[1] // flow_gray.shape[1]

@@ -52,8 +52,11 @@ import cv2
 import numpy as np
 from scipy import ndimage
 from scipy.optimize import linear_sum_assignment
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import TrackerConfig
+from mvtrack.stages.background import stacked_boxes
 
 __all__ = [
     "MergeDivision",
@@ -172,6 +175,8 @@ class TrackResult:
     splits:           (parent label, (new child labels...)) per splitting target
     merges:           (blob id, (labels...)) per merged blob
     merge_divisions:  the evidence of each merge, same order as ``merges``
+    reunions:         (kept label, (absorbed labels...)) per blob that merged stacked fragment
+                      targets of one person (masks only); the absorbed labels are retired
     """
 
     labels: np.ndarray
@@ -188,6 +193,7 @@ class TrackResult:
     splits: tuple[tuple[int, tuple[int, ...]], ...] = ()
     merges: tuple[tuple[int, tuple[int, ...]], ...] = ()
     merge_divisions: tuple[MergeDivision, ...] = ()
+    reunions: tuple[tuple[int, tuple[int, ...]], ...] = ()
 
     def index_of(self, label: int) -> int | None:
         """Row of ``label`` in this frame, or None if absent."""
@@ -468,6 +474,83 @@ class _Frame:
     blob_of: dict[int, int] = field(default_factory=dict)
     merges: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     divisions: list[MergeDivision] = field(default_factory=list)
+    reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+
+
+def _stacked(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    """(K, K) bool: boxes (K, 4) stacked like the parts of one person (TrackerConfig.fragment_*)."""
+    return stacked_boxes(
+        box_xywh,
+        cfg.fragment_x_overlap_frac,
+        cfg.fragment_y_gap_frac,
+        cfg.fragment_y_overlap_frac,
+        cfg.fragment_max_aspect,
+    )
+
+
+def _target_size(t: TargetTrack) -> float:
+    return float(t.template.sum()) if t.template is not None else float(t.box_xywh[2:].prod())
+
+
+def _template_box(t: TargetTrack) -> np.ndarray:
+    """(4,) float64: the box of the target's last unmerged mask placed at its predicted centroid
+    (while merged, its divided box is only the visible part and would look like a fragment)."""
+    if t.template is None:
+        return t.box_xywh
+    x, y = t.predicted_xy() - t.template_centroid_xy - _HALF_PX
+    return np.array([x, y, t.template.shape[1], t.template.shape[0]], np.float64)
+
+
+def _reunite(
+    heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame, cfg: TrackerConfig
+) -> tuple[int, ...]:
+    """The heirs of a merged blob that are distinct people: of every group of stacked fragment
+    targets (connected by :func:`_stacked` on their previous boxes) only the largest stays; the
+    others are recorded as absorbed in ``work.reunions`` and, receiving no pixel, retire."""
+    if not cfg.reunite_fragments:
+        return heirs
+    boxes = np.stack([_template_box(targets[r]) for r in heirs])
+    n_groups, group = connected_components(csr_matrix(_stacked(boxes, cfg)), directed=False)
+    if n_groups == len(heirs):
+        return heirs
+    kept = []
+    for g in range(n_groups):
+        members = [heirs[i] for i in np.flatnonzero(group == g)]
+        members.sort(key=lambda r: (-_target_size(targets[r]), targets[r].label))
+        kept.append(members[0])
+        if len(members) > 1:
+            absorbed = tuple(sorted(targets[r].label for r in members[1:]))
+            work.reunions.append((targets[members[0]].label, absorbed))
+    return tuple(sorted(kept))
+
+
+def _blob_box(window: tuple[slice, slice]) -> np.ndarray:
+    ys, xs = window
+    return np.array(
+        [xs.start - _HALF_PX, ys.start - _HALF_PX, xs.stop - xs.start, ys.stop - ys.start],
+        np.float64,
+    )
+
+
+def _parent_fragment(
+    b: int,
+    plan: _Plan,
+    slices: list[tuple[slice, slice] | None],
+    blob_ids: np.ndarray,
+    cfg: TrackerConfig,
+) -> int:
+    """For a blob with no inheritor: the index of its split parent's continuation blob when the
+    two are stacked like parts of one person (the blob is a fragment of the parent), else -1."""
+    parent = plan.split_parent[b]
+    if parent < 0 or not cfg.reunite_fragments:
+        return -1
+    for c, heirs in enumerate(plan.inheritors):
+        if heirs == (parent,):
+            window, other = slices[blob_ids[b] - 1], slices[blob_ids[c] - 1]
+            assert window is not None and other is not None
+            pair = np.stack([_blob_box(window), _blob_box(other)])
+            return c if bool(_stacked(pair, cfg)[0, 1]) else -1
+    return -1
 
 
 def _mask_overlap(
@@ -601,17 +684,23 @@ def track_masks(
         window = slices[blob_id - 1]
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
+            heirs = _reunite(heirs, state.targets, work, cfg)
+        if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
             grown = _crop_window(window, tracks, cur.shape)
             _merge_blob(work, int(blob_id), grown, cur[grown] == blob_id, tracks, ctx)
             continue
+        whole = _parent_fragment(b, plan, slices, blob_ids, cfg) if not heirs else -1
         if heirs:
             label = int(rows[heirs[0]])
+        elif whole >= 0:
+            label = int(rows[plan.inheritors[whole][0]])
         else:
             label, work.next_label = work.next_label, work.next_label + 1
             work.new_labels[b] = label
         work.label_image[window][cur[window] == blob_id] = label
-        work.blob_of[label] = int(blob_id)
+        if whole < 0:
+            work.blob_of[label] = int(blob_id)
     return _finish_masks(state, work, ctx)
 
 
@@ -654,6 +743,7 @@ def _finish_masks(
         splits=splits,
         merges=tuple(work.merges),
         merge_divisions=tuple(work.divisions),
+        reunions=tuple(work.reunions),
     )
     new_state = TrackerState(
         label_image=work.label_image.copy(), targets=tuple(tracks), next_label=work.next_label
