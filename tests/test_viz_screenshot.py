@@ -16,6 +16,7 @@ from typer.testing import CliRunner
 
 from mvtrack.viz.cli import app
 from mvtrack.viz.outputs import rerun_executable
+from mvtrack.viz.screenshot import save_screenshot
 
 
 def _vulkan_available() -> bool:
@@ -31,9 +32,9 @@ def test_overview_screenshot_is_not_blank(tmp_path: Path) -> None:
     clip = write_scene_clip(tmp_path / "scene", 30)
     rrd, png = tmp_path / "run.rrd", tmp_path / "overview.png"
     res = CliRunner().invoke(app, [str(clip), "--save", str(rrd), "--no-viewer",
-                                   "--set", "background.train_frames=15",
-                                   "--screenshot", str(png), "--screenshot-frame", "20"])
+                                   "--set", "background.train_frames=15"])
     assert res.exit_code == 0, res.output
+    save_screenshot(rrd, png, frame=20, settle_seconds=1.0)  # what --screenshot does
     image = cv2.imread(str(png))
     assert image is not None and image.shape[0] >= 400 and image.shape[1] >= 600
     # the camera views show the textured scene: many colours, not an empty dark viewer
