@@ -19,7 +19,15 @@ from mvtrack.generate.camera import NEAR_M, Camera
 from mvtrack.generate.ground import GroundTexture, background_colours, thermal_from_rgb
 from mvtrack.generate.world import Box
 
-__all__ = ["Background", "FrameRender", "PersonPixels", "render_background", "render_frame"]
+__all__ = [
+    "Background",
+    "FrameRender",
+    "PersonPixels",
+    "box_shadow",
+    "render_background",
+    "render_frame",
+    "shadow_polygons",
+]
 
 SHIFT = 4  # fixed-point bits of polygon vertices handed to OpenCV
 ONE = 1 << SHIFT

@@ -18,7 +18,7 @@ from mvtrack.generate.body import random_appearance
 from mvtrack.generate.camera import Camera, CameraSpec, look_at
 from mvtrack.generate.world import FPS, Box, Walker, make_path, person_box, visible_in
 
-__all__ = ["SCENARIOS", "Layout", "Planner", "Scenario"]
+__all__ = ["SCENARIOS", "Layout", "Planner", "Scenario", "fully_visible", "schedule"]
 
 MIN_SEPARATION_M = 0.8
 OBSTACLE_CLEARANCE_M = 0.55

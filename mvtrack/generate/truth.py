@@ -18,7 +18,7 @@ from mvtrack.generate.camera import Camera
 from mvtrack.generate.render import FrameRender
 from mvtrack.generate.world import FPS, Scene
 
-__all__ = ["TruthWriter", "write_clip_toml"]
+__all__ = ["TruthWriter", "source_name", "write_clip_toml"]
 
 CAMERA_HEADER = "frame,person,foot_x,foot_y,box_x,box_y,box_w,box_h,visible"
 WORLD_HEADER = "frame,person,x,y"

@@ -20,6 +20,7 @@ __all__ = [
     "Scene",
     "Walker",
     "make_path",
+    "person_box",
     "visible_in",
 ]
 
