@@ -50,7 +50,6 @@ from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
-from scipy import ndimage
 from scipy.optimize import linear_sum_assignment
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
@@ -535,7 +534,7 @@ def _blob_box(window: tuple[slice, slice]) -> np.ndarray:
 def _parent_fragment(
     b: int,
     plan: _Plan,
-    slices: list[tuple[slice, slice] | None],
+    slices: dict[int, tuple[slice, slice]],
     blob_ids: np.ndarray,
     cfg: TrackerConfig,
 ) -> int:
@@ -546,24 +545,29 @@ def _parent_fragment(
         return -1
     for c, heirs in enumerate(plan.inheritors):
         if heirs == (parent,):
-            window, other = slices[blob_ids[b] - 1], slices[blob_ids[c] - 1]
-            assert window is not None and other is not None
+            window, other = slices[int(blob_ids[b])], slices[int(blob_ids[c])]
             pair = np.stack([_blob_box(window), _blob_box(other)])
             return c if bool(_stacked(pair, cfg)[0, 1]) else -1
     return -1
 
 
 def _mask_overlap(
-    prev: np.ndarray | None, rows: np.ndarray, cur: np.ndarray, blob_ids: np.ndarray
+    prev: np.ndarray | None,
+    rows: np.ndarray,
+    cur: np.ndarray,
+    blob_ids: np.ndarray,
+    cur_index: np.ndarray,
 ) -> np.ndarray:
-    """(P, B) int64 pixel counts shared by previous label rows and current blob ids."""
+    """(P, B) int64 pixel counts shared by previous label rows and current blob ids.
+    cur_index: (n,) flat indices of the labelled pixels of ``cur``."""
     n_rows, n_blobs = len(rows), len(blob_ids)
     if prev is None or n_rows == 0 or n_blobs == 0:
         return np.zeros((n_rows, n_blobs), np.int64)
-    both = (prev > 0) & (cur > 0)
-    r = np.searchsorted(rows, prev[both])
-    c = np.searchsorted(blob_ids, cur[both])
-    ok = (r < n_rows) & (rows[np.minimum(r, n_rows - 1)] == prev[both])
+    before = prev.ravel()[cur_index]
+    both = before > 0
+    r = np.searchsorted(rows, before[both])
+    c = np.searchsorted(blob_ids, cur.ravel()[cur_index[both]])
+    ok = (r < n_rows) & (rows[np.minimum(r, n_rows - 1)] == before[both])
     flat = np.bincount(r[ok] * n_blobs + c[ok], minlength=n_rows * n_blobs)
     return flat.reshape(n_rows, n_blobs).astype(np.int64)
 
@@ -602,14 +606,42 @@ def _merge_blob(
     )
 
 
+@dataclass(frozen=True)
+class _LabelIndex:
+    """Where each label of a label image is: sorted labels (L,) int64, their bounding slices,
+    pixel counts (L,) int64, and the flat indices (P,) int64 of all labelled pixels."""
+
+    labels: np.ndarray
+    slices: dict[int, tuple[slice, slice]]
+    sizes: np.ndarray
+    index: np.ndarray
+
+
+def _label_index(label_image: np.ndarray) -> _LabelIndex:
+    """One pass over the labelled pixels only (``ndimage.find_objects`` scans the whole frame
+    per call: 2.5 ms at 768x576, against about 0.5 ms here for a few people)."""
+    index = np.flatnonzero(label_image > 0)  # 15x faster than on the int32 image
+    values = label_image.ravel()[index].astype(np.int64)
+    order = np.argsort(values, kind="stable")
+    values = values[order]
+    starts = np.flatnonzero(np.r_[True, values[1:] != values[:-1]]) if len(values) else index[:0]
+    width = label_image.shape[1]
+    ys, xs = index[order] // width, index[order] % width
+    labels = values[starts]
+    slices: dict[int, tuple[slice, slice]] = {}
+    if len(starts):
+        y0, y1 = np.minimum.reduceat(ys, starts), np.maximum.reduceat(ys, starts)
+        x0, x1 = np.minimum.reduceat(xs, starts), np.maximum.reduceat(xs, starts)
+        for k, lab in enumerate(labels.tolist()):
+            slices[lab] = (slice(int(y0[k]), int(y1[k]) + 1), slice(int(x0[k]), int(x1[k]) + 1))
+    sizes = np.diff(np.r_[starts, len(values)]).astype(np.int64)
+    return _LabelIndex(labels, slices, sizes, index)
+
+
 def _mask_stats(label_image: np.ndarray) -> tuple[np.ndarray, dict[int, tuple[slice, slice]]]:
     """Sorted labels present (int64) and each one's bounding slices."""
-    fg = label_image > 0
-    labels = np.unique(label_image[fg]).astype(np.int64)
-    compact = np.zeros(label_image.shape, np.int64)
-    compact[fg] = np.searchsorted(labels, label_image[fg]) + 1
-    objects = ndimage.find_objects(compact)  # index k <-> labels[k]
-    return labels, {int(lab): objects[k] for k, lab in enumerate(labels)}
+    found = _label_index(label_image)
+    return found.labels, found.slices
 
 
 def _new_mask_track(
@@ -671,17 +703,16 @@ def track_masks(
     """
     cur = np.asarray(mvo_labels)
     _check_mask_inputs(state, cur, frame)
-    blob_ids = np.unique(cur[cur > 0]).astype(np.int64)
+    found = _label_index(cur)
+    blob_ids, slices, sizes = found.labels, found.slices, found.sizes
     rows = np.array([t.label for t in state.targets], np.int64)
-    overlap = _mask_overlap(state.label_image, rows, cur, blob_ids)
-    slices = ndimage.find_objects(cur.astype(np.int64)) if len(blob_ids) else []
-    sizes = np.array([int((cur[slices[b - 1]] == b).sum()) for b in blob_ids], np.int64)
+    overlap = _mask_overlap(state.label_image, rows, cur, blob_ids, found.index)
     plan = _associate(overlap, overlap >= cfg.min_overlap_px, sizes)
     ctx = _Inputs(frame, cfg)
 
     work = _Frame(np.zeros(cur.shape, np.int32), rows, overlap, blob_ids, plan, state.next_label)
     for b, blob_id in enumerate(blob_ids):
-        window = slices[blob_id - 1]
+        window = slices[int(blob_id)]
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
             heirs = _reunite(heirs, state.targets, work, cfg)
