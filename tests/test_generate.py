@@ -21,7 +21,7 @@ from mvtrack.generate.world import make_path
 
 SIZE = (320, 240)
 FRAMES = 80
-CAMERA_HEADER = "frame,person,foot_x,foot_y,box_x,box_y,box_w,box_h,visible"
+CAMERA_HEADER = "frame,person,foot_x,foot_y,box_x,box_y,box_w,box_h,visible,in_frame"
 ALL = sorted(SCENARIOS)
 
 

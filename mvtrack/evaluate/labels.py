@@ -63,19 +63,12 @@ class Matched:
     meta: np.ndarray
 
 
-def _truth_rows(truth: Truth, camera: str, frames: range) -> FrameRows:
-    t = truth.cameras[camera]
-    keep = (t.frame >= frames.start) & (t.frame < frames.stop)
-    return FrameRows.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
-                        t.visible[keep])
-
-
 def match_rows(truth: Truth, rows: TrackRows, cameras: list[str], frames: range,
                cfg: LabelConfig) -> Matched:
     """Per camera and frame, height-gated Hungarian matching of predictions to truth."""
     cols: list[list[int]] = [[], [], [], []]
     for c, name in enumerate(cameras):
-        t = _truth_rows(truth, name, frames)
+        t = FrameRows.from_truth(truth.cameras[name], frames)
         mine = rows.of_camera(name)
         t_by = t.by_frame()
         p_by = FrameRows.of(mine.frame, mine.meta, mine.feet).by_frame()
@@ -99,7 +92,7 @@ def _global_idf1(truth: Truth, rows: TrackRows, cameras: list[str], frames: rang
     n = len(cameras)
     preds, truths = [], []
     for c, name in enumerate(cameras):
-        t = _truth_rows(truth, name, frames)
+        t = FrameRows.from_truth(truth.cameras[name], frames)
         mine = rows.of_camera(name)
         preds.append(FrameRows.of(mine.frame * n + c, mine.meta, mine.feet))
         truths.append(FrameRows.of(t.frames * n + c, t.ids, t.feet, t.heights, t.visible))
@@ -136,7 +129,7 @@ def _visible_sets(truth: Truth, cameras: list[str], frames: range,
     """Per camera: person -> frames it is visible (at least ``min_visible``)."""
     out = []
     for name in cameras:
-        t = _truth_rows(truth, name, frames)
+        t = FrameRows.from_truth(truth.cameras[name], frames)
         per: dict[int, set[int]] = {}
         for f, p in zip(t.frames[t.visible >= cfg.min_visible].tolist(),
                         t.ids[t.visible >= cfg.min_visible].tolist(), strict=True):

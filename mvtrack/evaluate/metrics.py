@@ -16,6 +16,8 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
+from mvtrack.io import CameraTruth
+
 __all__ = [
     "FrameRows",
     "MaskScores",
@@ -55,6 +57,14 @@ class FrameRows:
             heights=np.zeros(n) if heights is None else np.asarray(heights, np.float64).reshape(n),
             visible=np.ones(n) if visible is None else np.asarray(visible, np.float64).reshape(n),
         )
+
+    @classmethod
+    def from_truth(cls, t: CameraTruth, frames: range) -> FrameRows:
+        """One camera's truth rows within ``frames``; heights are the truth box heights and
+        ``visible`` the share of the whole silhouette seen (occlusion and frame edge)."""
+        keep = (t.frame >= frames.start) & (t.frame < frames.stop)
+        return cls.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
+                      t.shown[keep])
 
     def by_frame(self) -> dict[int, np.ndarray]:
         """Frame index -> row indices."""

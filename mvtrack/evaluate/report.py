@@ -17,7 +17,7 @@ import numpy as np
 from mvtrack.evaluate.labels import labels_report
 from mvtrack.evaluate.metrics import FrameRows, MaskScores, detection_scores, idf1, mask_scores
 from mvtrack.evaluate.pairs import pairs_metrics_for_results
-from mvtrack.io import CameraTruth, ClipError, Truth, read_truth
+from mvtrack.io import ClipError, Truth, read_truth
 from mvtrack.io.results import TrackRows, read_tracks
 
 __all__ = ["EvalConfig", "evaluate", "processed_frames", "results_masks"]
@@ -33,12 +33,6 @@ class EvalConfig:
 
     gate_heights: float = 0.5
     min_visible: float = 0.5
-
-
-def _truth_rows(t: CameraTruth, frames: range) -> FrameRows:
-    keep = (t.frame >= frames.start) & (t.frame < frames.stop)
-    return FrameRows.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
-                        t.visible[keep])
 
 
 def processed_frames(results: Path) -> range:
@@ -86,7 +80,7 @@ def _mask_summary(truth: Truth, results: Path, camera: str) -> Mapping[str, floa
 
 def _camera_metrics(truth: Truth, rows: TrackRows, results: Path, camera: str,
                     cfg: EvalConfig) -> dict[str, Any]:
-    t = _truth_rows(truth.cameras[camera], processed_frames(results))
+    t = FrameRows.from_truth(truth.cameras[camera], processed_frames(results))
     mine = rows.of_camera(camera)
     scores: dict[str, Any] = detection_scores(_pred_rows(mine, mine.target), t,
                                               cfg.gate_heights, cfg.min_visible)

@@ -52,12 +52,14 @@ class Background:
 @dataclass(frozen=True)
 class PersonPixels:
     """One person in one frame: pixels of the silhouette rendered alone (clipped to the
-    frame), visible pixels, and inclusive pixel boxes (x0, y0, x1, y1) of both."""
+    frame), visible pixels, and inclusive pixel boxes (x0, y0, x1, y1) of both;
+    ``full_px``: pixels of the whole silhouette, including what lies outside the frame."""
 
     alone_px: int
     visible_px: int
     alone_box: tuple[int, int, int, int]
     visible_box: tuple[int, int, int, int] | None
+    full_px: int
 
 
 @dataclass(frozen=True, eq=False)
@@ -86,6 +88,16 @@ def _raster(poly: np.ndarray, shape: tuple[int, int]) -> tuple[int, int, np.ndar
     m = np.zeros((y1 - y0, x1 - x0), np.uint8)
     cv2.fillConvexPoly(m, poly - np.array([x0 * ONE, y0 * ONE], np.int32), 1, cv2.LINE_8, SHIFT)
     return x0, y0, m.view(bool)
+
+
+def _union_px(polys: list[np.ndarray]) -> int:
+    """Pixels of the union of fixed-point convex polygons, unclipped (for the in-frame share)."""
+    pts = np.vstack(polys)
+    lo, hi = pts.min(axis=0) // ONE, -(-pts.max(axis=0) // ONE)
+    m = np.zeros((int(hi[1] - lo[1]) + 1, int(hi[0] - lo[0]) + 1), np.uint8)
+    for poly in polys:
+        cv2.fillConvexPoly(m, poly - (lo * ONE).astype(np.int32), 1, cv2.LINE_8, SHIFT)
+    return int(np.count_nonzero(m))
 
 
 def _grid(x0: int, y0: int, shape: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray]:
@@ -219,7 +231,9 @@ class _Canvas:
         if len(xs) == 0:
             return None
         box = (x0 + int(xs.min()), y0 + int(ys.min()), x0 + int(xs.max()), y0 + int(ys.max()))
-        return PersonPixels(len(xs), 0, box, None)
+        inside = lo.min() >= 0 and hi[0] < w and hi[1] < h
+        full = len(xs) if inside else _union_px([hull for *_, hull in parts])
+        return PersonPixels(len(xs), 0, box, None, max(full, len(xs)))
 
     def _paint(self, hit: tuple[int, int, np.ndarray], lit_hull: np.ndarray | None,
                depth: float, pid: int, base: np.ndarray) -> None:
@@ -247,7 +261,7 @@ def _with_visible(px: PersonPixels, label: np.ndarray, pid: int) -> PersonPixels
     if len(xs) == 0:
         return px
     box = (x0 + int(xs.min()), y0 + int(ys.min()), x0 + int(xs.max()), y0 + int(ys.max()))
-    return PersonPixels(px.alone_px, len(xs), px.alone_box, box)
+    return PersonPixels(px.alone_px, len(xs), px.alone_box, box, px.full_px)
 
 
 def render_frame(

@@ -20,7 +20,9 @@ from mvtrack.generate.world import FPS, Scene
 
 __all__ = ["TruthWriter", "source_name", "write_clip_toml"]
 
-CAMERA_HEADER = "frame,person,foot_x,foot_y,box_x,box_y,box_w,box_h,visible"
+# FORMATS.md's columns, then the optional `in_frame`: the share of the person's whole
+# silhouette that lies inside the frame (`visible` counts only occlusion, not the frame edge).
+CAMERA_HEADER = "frame,person,foot_x,foot_y,box_x,box_y,box_w,box_h,visible,in_frame"
 WORLD_HEADER = "frame,person,x,y"
 
 
@@ -71,9 +73,10 @@ class TruthWriter:
             fx, fy = foot[0] / foot[2], foot[1] / foot[2]
             x0, y0, x1, y1 = px.visible_box if px.visible_box is not None else px.alone_box
             visible = px.visible_px / px.alone_px
+            in_frame = px.alone_px / px.full_px
             self.rows[cam.name].append(
                 f"{frame},{pid},{fx:.3f},{fy:.3f},{x0 - 0.5:.1f},{y0 - 0.5:.1f},"
-                f"{x1 - x0 + 1},{y1 - y0 + 1},{visible:.4f}"
+                f"{x1 - x0 + 1},{y1 - y0 + 1},{visible:.4f},{in_frame:.4f}"
             )
 
     def add_mask(self, frame: int, cam: Camera, render: FrameRender) -> None:

@@ -48,6 +48,9 @@ _CAMERA_COLUMNS = (
     Column("box_h", lo=0),
     Column("visible", lo=0, hi=1),
 )
+# Optional column after FORMATS.md's nine: the share of the silhouette inside the frame
+# (mvtrack's generator writes it; without it every row counts as wholly inside).
+_IN_FRAME = Column("in_frame", lo=0, hi=1)
 _WORLD_COLUMNS = (
     Column("frame", "int", lo=0),
     Column("person", "int", lo=0),
@@ -73,6 +76,8 @@ class CameraTruth:
         foot: (N, 2) float64 image of the ground point under the person's centre of mass, px.
         box_xywh: (N, 4) float64 box of the person's visible pixels (left/top edges, size), px.
         visible: (N,) float64 fraction 0..1 of the silhouette not hidden.
+        in_frame: (N,) float64 fraction 0..1 of the silhouette inside the frame (optional
+            column ``in_frame``; 1.0 when the file does not have it).
     """
 
     camera: str
@@ -81,6 +86,17 @@ class CameraTruth:
     foot: np.ndarray
     box_xywh: np.ndarray
     visible: np.ndarray
+    in_frame: np.ndarray | None = None
+
+    def __post_init__(self) -> None:
+        if self.in_frame is None:
+            object.__setattr__(self, "in_frame", _frozen(np.ones(len(self.frame))))
+
+    @property
+    def shown(self) -> np.ndarray:
+        """(N,) float64: share of the whole silhouette seen, ``visible * in_frame``."""
+        assert self.in_frame is not None
+        return self.visible * self.in_frame
 
     def __len__(self) -> int:
         return int(self.frame.shape[0])
@@ -95,6 +111,7 @@ class CameraTruth:
             _frozen(self.foot[rows]),
             _frozen(self.box_xywh[rows]),
             _frozen(self.visible[rows]),
+            _frozen(self.in_frame[rows]) if self.in_frame is not None else None,
         )
 
 
@@ -175,9 +192,20 @@ def _no_duplicates(path: Path, frame: np.ndarray, person: np.ndarray, lines: np.
         )
 
 
+def _has_in_frame(path: Path) -> bool:
+    try:
+        with open(path, encoding="utf-8") as f:
+            header = [h.strip() for h in f.readline().split(",")]
+    except (OSError, UnicodeDecodeError):
+        return False  # read_table reports it
+    return header[len(_CAMERA_COLUMNS) : len(_CAMERA_COLUMNS) + 1] == [_IN_FRAME.name]
+
+
 def _read_camera(path: Path, camera: str) -> CameraTruth:
-    t, lines = read_table(path, _CAMERA_COLUMNS)
+    extra = (_IN_FRAME,) if _has_in_frame(path) else ()
+    t, lines = read_table(path, _CAMERA_COLUMNS + extra)
     _no_duplicates(path, t["frame"], t["person"], lines)
+    in_frame = t["in_frame"] if extra else np.ones(len(t["frame"]))
     return CameraTruth(
         camera,
         _frozen(t["frame"]),
@@ -185,6 +213,7 @@ def _read_camera(path: Path, camera: str) -> CameraTruth:
         _frozen(np.stack([t["foot_x"], t["foot_y"]], axis=1)),
         _frozen(np.stack([t["box_x"], t["box_y"], t["box_w"], t["box_h"]], axis=1)),
         _frozen(t["visible"]),
+        _frozen(in_frame),
     )
 
 
