@@ -284,7 +284,8 @@ def eval_(
     for key in next(iter(cams.values())):
         if key != "masks":
             table.add_row(key, *(_fmt(cams[c][key]) for c in cams))
-    for key in ("fg_precision", "fg_recall", "shadow_detection", "shadow_discrimination"):
+    for key in ("fg_precision", "fg_recall", "shadow_detection", "shadow_discrimination",
+                "shadow_kept_out"):
         if any("masks" in cams[c] for c in cams):
             table.add_row(key, *(_fmt(cams[c].get("masks", {}).get(key, "-")) for c in cams))
     out.print(table)

@@ -105,3 +105,4 @@ def test_mask_scores() -> None:
     assert s["fg_precision"] == pytest.approx(2 / 3)
     assert s["shadow_detection"] == pytest.approx(3 / 6)
     assert s["shadow_discrimination"] == pytest.approx(3 / 4)
+    assert s["shadow_kept_out"] == pytest.approx(5 / 6)

@@ -179,13 +179,14 @@ class MaskScores:
     shadow_pixels: int = 0  # truth cast-shadow pixels
     shadow_detected: int = 0  # truth shadow predicted shadow and not foreground
     person_not_shadow: int = 0  # truth person pixels not called shadow
+    shadow_in_fg: int = 0  # truth shadow pixels that entered the foreground
 
     def __add__(self, other: MaskScores) -> MaskScores:
         return MaskScores(*(a + b for a, b in zip(self.counts(), other.counts(), strict=True)))
 
     def counts(self) -> tuple[int, ...]:
         return (self.fg_true_pos, self.fg_false_pos, self.fg_false_neg, self.shadow_pixels,
-                self.shadow_detected, self.person_not_shadow)
+                self.shadow_detected, self.person_not_shadow, self.shadow_in_fg)
 
     def summary(self) -> Mapping[str, float]:
         nan = float("nan")
@@ -197,6 +198,10 @@ class MaskScores:
             "shadow_detection": self.shadow_detected / self.shadow_pixels
             if self.shadow_pixels else nan,
             "shadow_discrimination": self.person_not_shadow / person if person else nan,
+            # the share of cast-shadow pixels kept out of the foreground, whether called shadow
+            # or background (faint shadows, e.g. of a thermal camera, never pass T_L at all)
+            "shadow_kept_out": 1.0 - self.shadow_in_fg / self.shadow_pixels
+            if self.shadow_pixels else nan,
         }
 
 
@@ -218,4 +223,5 @@ def mask_scores(pred_label: np.ndarray, truth_label: np.ndarray) -> MaskScores:
         shadow_pixels=int(ts.sum()),
         shadow_detected=int((ts & (pred_label == 2)).sum()),
         person_not_shadow=int((tf & (pred_label != 2)).sum()),
+        shadow_in_fg=int((ts & pf).sum()),
     )
