@@ -7,6 +7,7 @@ Each command is thin: parse options, call the library, print. Errors that are th
 from __future__ import annotations
 
 import json
+import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -275,8 +276,43 @@ def eval_(
             metrics = evaluate(clip, results)
         except (FileNotFoundError, ValueError) as exc:
             raise fail(str(exc)) from None
-    (results / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
-    table = Table(title=f"{results} against {clip}/truth")
+    (results / "metrics.json").write_text(json.dumps(_json_safe(metrics), indent=2) + "\n")
+    _print_camera_metrics(metrics, f"{results} against {clip}/truth")
+    if "labels" in metrics:
+        _print_flat("consistent labels (all cameras)", metrics["labels"])
+    for pair in metrics.get("pairs", []):
+        _print_flat(f"pair {'-'.join(pair['cameras'])}", pair)
+    out.print(f"wrote {results / 'metrics.json'}")
+
+
+def _json_safe(value: Any) -> Any:
+    """NaN and infinities become null: metrics.json stays standard JSON."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
+
+
+def _print_flat(title: str, figures: dict[str, Any]) -> None:
+    """The scalar figures of a metrics section, one per row; nested ones as key.sub."""
+    table = Table(title=title)
+    table.add_column("figure")
+    table.add_column("value")
+    for key, value in figures.items():
+        if isinstance(value, dict):
+            for sub, v in value.items():
+                if not isinstance(v, dict | list):
+                    table.add_row(f"{key}.{sub}", _fmt(v))
+        elif not isinstance(value, list):
+            table.add_row(key, _fmt(value))
+    out.print(table)
+
+
+def _print_camera_metrics(metrics: dict[str, Any], title: str) -> None:
+    table = Table(title=title)
     table.add_column("figure")
     cams = metrics["cameras"]
     for name in cams:
@@ -289,7 +325,6 @@ def eval_(
         if any("masks" in cams[c] for c in cams):
             table.add_row(key, *(_fmt(cams[c].get("masks", {}).get(key, "-")) for c in cams))
     out.print(table)
-    out.print(f"wrote {results / 'metrics.json'}")
 
 
 def shared_data_dir() -> Path | None:
