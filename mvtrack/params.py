@@ -301,7 +301,7 @@ class MarkerConfig(_Checked):
         5, "bootstrap: inlier candidates each supporting target pair needs", 1, 100000
     )
     comotion_min_frac: float = param(
-        0.6, "bootstrap: fraction of a supporting pair's candidates that must be inliers",
+        0.7, "bootstrap: fraction of a supporting pair's candidates that must be inliers",
         0.0, 1.0,
     )
     comotion_threshold_px: float = param(
@@ -310,7 +310,10 @@ class MarkerConfig(_Checked):
     comotion_threshold_heights: float = param(
         0.2, "bootstrap: inlier error may reach this fraction of the pair's mean height", 0.0, 10.0
     )
-    comotion_iterations: int = param(400, "bootstrap: RANSAC samples per search", 1, 100000)
+    comotion_iterations: int = param(
+        1500, "bootstrap: RANSAC samples (two candidates of two target pairs) per search", 1,
+        1000000,
+    )
     comotion_every_frames: int = param(
         25, "bootstrap: search the pool this often while no homography is valid", 1, 100000
     )

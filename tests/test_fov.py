@@ -9,12 +9,17 @@ from hypothesis import strategies as st
 
 from mvtrack.params import FovConfig
 from mvtrack.stages.fov import (
+    FovEventPoints,
     add_event,
     best_match,
+    border_distance,
+    crossing_time,
     detect_events,
     estimate_line,
+    event_match,
     event_votes,
     hough_points,
+    interpolate_targets,
     mask_touching_sides,
     new_slot,
 )
@@ -165,3 +170,75 @@ def test_best_match_uses_body_heights_and_skips_taken_targets() -> None:
     assert best_match(line, t, frozenset({2}), CFG) is None  # 0.4 > 0.35 heights
     assert best_match(line, t, frozenset({2}), FovConfig(fov_match_heights=0.5)) == 1
     assert best_match(line, CameraTargets.empty(SIZE), frozenset(), CFG) is None
+
+
+def test_crossing_time_from_the_feet_track() -> None:
+    cfg = FovConfig()
+    # Leaving at 2 px/frame: 10 px from the border at frame 20 -> on the border at frame 25.
+    leave = np.array([[17.0, 16.0], [18.0, 14.0], [19.0, 12.0], [20.0, 10.0]])
+    assert crossing_time(leave, 20, "leave", cfg) == pytest.approx(25.0)
+    # Entering at 3 px/frame, 12 px inside at frame 40 -> crossed at frame 36.
+    enter = np.array([[40.0, 12.0], [41.0, 15.0], [42.0, 18.0]])
+    assert crossing_time(enter, 40, "enter", cfg) == pytest.approx(36.0)
+    # Too few samples, or motion the wrong way: the event frame itself.
+    assert crossing_time(leave[:1], 20, "leave", cfg) == 20.0
+    assert crossing_time(enter, 40, "leave", cfg) == 40.0
+    # The shift is bounded.
+    slow = np.array([[0.0, 50.0], [1.0, 49.9]])
+    assert crossing_time(slow, 1, "leave", cfg) == 1 + cfg.crossing_max_shift_frames
+
+
+def test_border_distance_per_side() -> None:
+    feet = np.array([[10.0, 200.0]])
+    assert border_distance(feet, "left", (320, 240))[0] == 10.5
+    assert border_distance(feet, "right", (320, 240))[0] == 309.5
+    assert border_distance(feet, "bottom", (320, 240))[0] == 39.5
+
+
+def _at(labels, feet, size=(320, 240)) -> CameraTargets:
+    feet = np.asarray(feet, float)
+    boxes = np.c_[feet - [5, 30], np.full((len(feet), 2), [10, 30])]
+    return CameraTargets(np.asarray(labels, np.int64), feet, np.full(len(feet), 30.0), boxes,
+                         size)
+
+
+def test_interpolate_targets_between_frames() -> None:
+    t0 = _at([1, 2], [[100, 100], [50, 50]])
+    t1 = _at([1, 3], [[110, 120], [200, 200]])
+    mid = interpolate_targets((10, t0), (12, t1), 10.5)  # nearer t0: its labels
+    assert mid.labels.tolist() == [1, 2]
+    assert np.allclose(mid.feet, [[102.5, 105.0], [50, 50]])
+    late = interpolate_targets((10, t0), (12, t1), 11.5)
+    assert late.labels.tolist() == [1, 3] and np.allclose(late.feet[0], [107.5, 115.0])
+    assert np.allclose(t0.feet, [[100, 100], [50, 50]])  # inputs untouched
+
+
+def test_matches_are_made_only_when_unambiguous() -> None:
+    cfg = FovConfig()
+    line = (1.0, 0.0, -100.0)  # x = 100
+    one = _at([1, 2], [[101, 50], [180, 60]])
+    assert best_match(line, one, frozenset(), cfg) == 1
+    assert best_match(line, one, frozenset({1}), cfg) is None
+    two = _at([1, 2], [[101, 50], [97, 160]])  # both within 0.35 heights (10.5 px)
+    assert best_match(line, two, frozenset(), cfg) is None
+    ev = FovEventPoints(0, one.labels, one.feet, one.heights_px, np.ones(2), 7)
+    assert event_match(line, ev, cfg) == 1
+    ev2 = FovEventPoints(0, two.labels, two.feet, two.heights_px, np.ones(2), 7)
+    assert event_match(line, ev2, cfg) is None
+
+
+def test_crossers_picked_by_a_homography_refine_the_line() -> None:
+    """Four events; at each a bystander sits near a wrong line. With H the crossers are known."""
+    cfg = FovConfig(min_fov_events=4)
+    slot = new_slot("a", "b", "left", (320, 240))
+    for k in range(4):
+        y = 40.0 + 50 * k
+        seen = _at([10 + k, 20 + k], [[100.0 + 0.2 * k, y], [150.0, 60.0 + 3 * k]])
+        slot = add_event(slot, k, seen, cfg, event_target=k, crosser_foot=(0.0 - 100.0, y))
+    shift = np.array([[1.0, 0.0, 200.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # b -> a: x + 200
+    with_h = estimate_line(slot, cfg, 5, shift)
+    assert with_h.line is not None
+    a, _b, c = with_h.line.line
+    assert abs(abs(a) - 1) < 1e-3 and abs(-c / a - 100.3) < 0.5
+    plain = estimate_line(slot, cfg, 5)  # Hough alone: the compact bystander cluster ties
+    assert plain.line is not None and abs(plain.line.line[0]) < 0.99

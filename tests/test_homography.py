@@ -13,6 +13,7 @@ from mvtrack.stages.homography import (
     apply_homography,
     dlt,
     fit_homography,
+    solve_homography,
     transfer_errors,
 )
 
@@ -165,3 +166,39 @@ def test_robust_fit_is_reproducible_with_a_seeded_generator() -> None:
     two = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(7))
     assert one and two
     assert np.array_equal(one.H_b_from_a, two.H_b_from_a)
+
+
+def test_inliers_from_too_few_target_pairs_are_refused() -> None:
+    """Markers of two links only: a wrong H could follow two walks, so no estimate."""
+    rng = np.random.default_rng(5)
+    H = _ground_homography(rng)
+    pts_a = _points(rng, 30)
+    pts_b = apply_homography(H, pts_a)
+    cfg = HomographyConfig()
+    two = np.repeat([0, 1], 15)
+    failure = fit_homography(pts_a, pts_b, cfg, groups=two)
+    assert not failure and "2 target pairs" in failure.reason
+    three = np.repeat([0, 1, 2], 10)
+    assert fit_homography(pts_a, pts_b, cfg, groups=three)
+
+
+def test_robust_fit_judges_spread_on_its_inliers() -> None:
+    """Well-spread true markers plus a far cluster of bad ones: the robust fit still works."""
+    rng = np.random.default_rng(6)
+    H = _ground_homography(rng)
+    good = _points(rng, 20)
+    bad = np.array([[5000.0, 5000.0]]) + rng.normal(0, 1, (40, 2))
+    pts_a = np.r_[good, bad]
+    pts_b = np.r_[apply_homography(H, good), rng.uniform(0, 700, (40, 2))]
+    est = fit_homography(pts_a, pts_b, HomographyConfig(ransac_iterations=2000))
+    assert isinstance(est, HomographyEstimate) and est.inliers[:20].all()
+    assert not est.inliers[20:].any()
+
+
+def test_solve_homography_degenerate_samples_give_none() -> None:
+    line = np.c_[np.arange(4.0), np.arange(4.0)]
+    assert solve_homography(line, line) is None
+    assert solve_homography(np.zeros((4, 2)), np.zeros((4, 2))) is None
+    square = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
+    H = solve_homography(square, square * 2 + 5)
+    assert H is not None and np.allclose(apply_homography(H, square), square * 2 + 5)

@@ -5,7 +5,17 @@ from __future__ import annotations
 import numpy as np
 
 from mvtrack.params import MarkerConfig
-from mvtrack.stages.markers import marker_points, marker_step, markers_init
+from mvtrack.stages.homography import solve_homography, transfer_errors
+from mvtrack.stages.markers import (
+    Candidates,
+    Marker,
+    candidates_add,
+    comotion_search,
+    marker_points,
+    marker_step,
+    markers_add,
+    markers_init,
+)
 from mvtrack.stages.targets import CameraTargets
 
 SIZE = (320, 240)
@@ -105,3 +115,60 @@ def test_no_input_is_modified() -> None:
     new, _ = marker_step(state, [(1, 2)], a, b, CFG, 0)
     assert state.cells == {} and state.heights_a == {} and len(new.cells) == 1
     assert np.array_equal(a.feet, before[0]) and np.array_equal(b.feet, before[1])
+
+
+def _walk(labels_a, labels_b, feet_a, shift=(200.0, 10.0)):
+    """A and B targets of one frame; B sees A's feet translated by ``shift`` when paired."""
+    fa = np.asarray(feet_a, float)
+    boxes = np.c_[fa - [5, 30], np.full((len(fa), 2), [10, 30])]
+    a = CameraTargets(np.asarray(labels_a, np.int64), fa, np.full(len(fa), 30.0), boxes,
+                      (640, 480))
+    fb = fa + shift
+    b = CameraTargets(np.asarray(labels_b, np.int64), fb, np.full(len(fb), 30.0),
+                      boxes + [*shift, 0, 0], (640, 480))
+    return a, b
+
+
+def _pool(n_people: int, frames: int = 100) -> Candidates:
+    """Candidates from ``n_people`` walking on distinct straight paths, all seen by both."""
+    cfg = MarkerConfig()
+    pool = Candidates.empty()
+    rng = np.random.default_rng(3)
+    starts = rng.uniform([100, 100], [300, 300], (n_people, 2))
+    vel = rng.uniform(-1.0, 1.0, (n_people, 2))
+    for f in range(0, frames, cfg.marker_every_frames):
+        feet = starts + f * vel
+        a, b = _walk(np.arange(n_people) + 1, np.arange(n_people) + 101, feet)
+        pool = candidates_add(pool, a, b, cfg, f)
+    return pool
+
+
+def _fit(pa, pb):
+    return solve_homography(pa, pb)
+
+
+def test_comotion_finds_the_pairs_that_move_together() -> None:
+    pool = _pool(4)
+    assert len(pool) == 20 * 16  # every marker frame, every A x B pair
+    found = comotion_search(pool, MarkerConfig(), _fit, transfer_errors, np.random.default_rng(0))
+    assert found is not None
+    assert found.links == ((1, 101), (2, 102), (3, 103), (4, 104))
+    assert np.allclose(found.H_b_from_a / found.H_b_from_a[2, 2],
+                       [[1, 0, 200], [0, 1, 10], [0, 0, 1]], atol=1e-6)
+    assert len(found.markers) == 80 and all(m.b_label == m.a_label + 100 for m in found.markers)
+
+
+def test_comotion_needs_enough_distinct_pairs() -> None:
+    cfg = MarkerConfig()
+    pool = _pool(2)  # two walks: any H could follow them, so no hypothesis is accepted
+    assert comotion_search(pool, cfg, _fit, transfer_errors, np.random.default_rng(0)) is None
+    assert comotion_search(Candidates.empty(), cfg, _fit, transfer_errors,
+                           np.random.default_rng(0)) is None
+
+
+def test_markers_add_keeps_one_per_cell() -> None:
+    state = markers_init((320, 240))
+    ms = [Marker(f, 1, 2, (100.0 + f * 0.1, 100.0), (5.0, 5.0)) for f in range(3)]
+    out = markers_add(state, ms, MarkerConfig())
+    assert len(out.cells) == 1 and out.n_dropped == 3
+    assert next(iter(out.cells.values())).frame == 2 and state.cells == {}

@@ -207,8 +207,12 @@ def run(request: pytest.FixtureRequest) -> Run:
     return _run(request.param)
 
 
+FIRST_VALID_BEFORE = {"default": 300, "tilted": 300, "one_edge": 300}
+"""Issue 4 target. Measured: 200, 65, 25 (co-motion bootstrap; FOV associations alone: none)."""
+
+
 def test_a_valid_homography_is_learned_and_accurate(run: Run) -> None:
-    assert run.first_valid is not None and run.first_valid < 600
+    assert run.first_valid is not None and run.first_valid < FIRST_VALID_BEFORE[run.name]
     assert np.median(run.transfer_px) <= 3.0
     assert np.percentile(run.transfer_px, 90) <= 8.0
     est = run.state.homography

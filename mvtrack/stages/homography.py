@@ -257,7 +257,10 @@ def fit_homography(
     n = len(pts_a)
     if not (np.all(np.isfinite(pts_a)) and np.all(np.isfinite(pts_b))):
         return HomographyFailure("markers contain non-finite points", n)
-    reason = degeneracy_reason(pts_a, pts_b, cfg)
+    # The robust fit judges degeneracy on its inliers only: a few bad markers must not make a
+    # well-spread set look collinear (or the reverse).
+    reason = degeneracy_reason(pts_a, pts_b, cfg) if cfg.method == "dlt" else (
+        f"{n} markers, need {cfg.min_markers}" if n < cfg.min_markers else "")
     if reason:
         return HomographyFailure(reason, n)
     inliers = np.ones(n, bool)

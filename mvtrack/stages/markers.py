@@ -276,22 +276,32 @@ def candidates_add(
     )
 
 
-def _supported(
-    pool: Candidates, inlier: np.ndarray, cfg: MarkerConfig
-) -> tuple[list[tuple[int, int]], np.ndarray]:
-    """Label pairs with enough inliers, mostly inliers, one-to-one; and their inlier rows."""
-    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    n_in = np.bincount(inverse, inlier, len(pairs))
-    n_all = np.bincount(inverse, None, len(pairs))
-    ok = (n_in >= cfg.comotion_min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+def _one_to_one(
+    pairs: np.ndarray, n_in: np.ndarray, ok: np.ndarray
+) -> list[tuple[int, int]]:
+    """Supported label pairs, strongest first, skipping any that reuse a label."""
     chosen: list[tuple[int, int]] = []
     for k in np.flatnonzero(ok)[np.argsort(-n_in[ok], kind="stable")]:
         pa, pb = int(pairs[k, 0]), int(pairs[k, 1])
         if all(pa != x and pb != y for x, y in chosen):
             chosen.append((pa, pb))
-    rows = inlier & np.array([(int(x), int(y)) in chosen for x, y in pool.labels], bool)
-    return chosen, rows
+    return chosen
+
+
+def _two_link_sample(
+    eligible: np.ndarray, pairs: np.ndarray, rows_of: list[np.ndarray], rng: np.random.Generator
+) -> np.ndarray | None:
+    """(4,) candidate rows: two from each of two label pairs that share no label, or None.
+
+    Sampling whole target pairs (not single candidates) makes a correct sample likely even
+    when most candidates are wrong: it needs two true pairs, not four true candidates.
+    """
+    if len(eligible) < 2:
+        return None
+    i, j = rng.choice(eligible, size=2, replace=False)
+    if pairs[i, 0] == pairs[j, 0] or pairs[i, 1] == pairs[j, 1]:
+        return None
+    return np.r_[rng.choice(rows_of[i], 2, replace=False), rng.choice(rows_of[j], 2, replace=False)]
 
 
 def comotion_search(
@@ -303,34 +313,46 @@ def comotion_search(
 ) -> Comotion | None:
     """RANSAC over the pool for a homography that at least ``comotion_min_pairs`` distinct,
     one-to-one target pairs follow (each with ``comotion_min_support`` inliers, and mostly
-    inliers; a candidate is an inlier within :meth:`Candidates.gates_px`). ``fit(pts_a,
-    pts_b)`` returns H or None (degenerate); ``errors(H, pts_a, pts_b)`` the per-point
-    transfer error in px. None when no hypothesis is supported.
+    inliers; a candidate is an inlier within :meth:`Candidates.gates_px`). Samples are two
+    candidates of each of two target pairs. ``fit(pts_a, pts_b)`` returns H or None
+    (degenerate); ``errors(H, pts_a, pts_b)`` the per-point transfer error in px. None when no
+    hypothesis is supported.
     """
-    n = len(pool)
-    if n < 4:
+    if len(pool) < 4:
         return None
-    best: tuple[int, list[tuple[int, int]], np.ndarray] | None = None
+    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    n_all = np.bincount(inverse, None, len(pairs))
+    rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
+    eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
     gates = pool.gates_px(cfg)
+
+    def support(H: np.ndarray) -> tuple[list[tuple[int, int]], np.ndarray]:
+        inlier = errors(H, pool.x_a, pool.x_b) < gates
+        n_in = np.bincount(inverse, inlier, len(pairs))
+        ok = (n_in >= cfg.comotion_min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+        if ok.sum() < cfg.comotion_min_pairs:
+            return [], inlier
+        chosen = _one_to_one(pairs, n_in, ok)
+        keep = np.isin(inverse, [k for k in range(len(pairs))
+                                 if (int(pairs[k, 0]), int(pairs[k, 1])) in chosen])
+        return chosen, inlier & keep
+
+    best: tuple[int, np.ndarray] | None = None
     for _ in range(cfg.comotion_iterations):
-        sample = rng.choice(n, size=4, replace=False)
-        la, lb = pool.labels[sample, 0], pool.labels[sample, 1]
-        if len(set(la.tolist())) < 4 or len(set(lb.tolist())) < 4:
-            continue
-        H = fit(pool.x_a[sample], pool.x_b[sample])
+        sample = _two_link_sample(eligible, pairs, rows_of, rng)
+        H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
         if H is None:
             continue
-        inlier = errors(H, pool.x_a, pool.x_b) < gates
-        chosen, rows = _supported(pool, inlier, cfg)
+        chosen, rows = support(H)
         if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
-            best = (int(rows.sum()), chosen, rows)
+            best = (int(rows.sum()), rows)
     if best is None:
         return None
-    _, chosen, rows = best
-    H = fit(pool.x_a[rows], pool.x_b[rows])
+    H = fit(pool.x_a[best[1]], pool.x_b[best[1]])
     if H is None:
         return None
-    chosen, rows = _supported(pool, errors(H, pool.x_a, pool.x_b) < gates, cfg)
+    chosen, rows = support(H)
     if len(chosen) < cfg.comotion_min_pairs:
         return None
     markers = tuple(

@@ -384,7 +384,8 @@ def _bootstrap(
     """Co-motion bootstrap while no homography is valid (see :class:`MarkerConfig`).
 
     Pools candidate pairs; every ``comotion_every_frames`` searches them. A supported
-    hypothesis links its present target pairs (associations of kind "comotion", side "none")
+    hypothesis links its present target pairs (associations of kind "comotion", side "none"),
+    replacing FOV links of the same targets (one event is weaker evidence than many frames),
     and adds its inlier candidates to the marker store; the pool is then emptied.
     """
     mcfg = cfg.markers
@@ -399,10 +400,11 @@ def _bootstrap(
         return pool, links, state.markers, []
     present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
     made = []
-    for a_label, b_label in found.links:
-        links, pair = _link(links, 1, b_label, a_label, present)
-        if pair is not None:
-            made.append((*pair, FovEvent(frame, state.names[1], b_label, "none", "comotion")))
+    for a_label, b_label in found.links:  # stronger evidence than one FOV event: replaces
+        if a_label in present[0] and b_label in present[1] and links.b_of_a.get(a_label) != b_label:
+            links = links.add(a_label, b_label, frame)
+            made.append((a_label, b_label, FovEvent(frame, state.names[1], b_label, "none",
+                                                    "comotion")))
     return Candidates.empty(), links, markers_add(state.markers, found.markers, mcfg), made
 
 
