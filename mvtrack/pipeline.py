@@ -48,7 +48,7 @@ from mvtrack.stages.pair import (
 )
 from mvtrack.stages.targets import CameraTargets
 
-__all__ = ["CameraResult", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
+__all__ = ["CameraResult", "CameraStep", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
 
 STAGES = ("read", "background", "tracker", "feet", "pairs", "metas")
 """Stage names in timing tables, in pipeline order."""
@@ -136,17 +136,31 @@ class _Timer:
             self.ms[stage] += 1000.0 * (time.perf_counter() - start)
 
 
+CameraStep = Callable[[int, CameraSpec], CameraResult]
+"""A replacement front end: (clip frame index, camera) -> that camera's :class:`CameraResult`.
+
+``mvtrack-view --watch`` replays a finished run's camera results through it, so only the pair
+stages are recomputed when the front-end thresholds did not change.
+"""
+
+
 class Pipeline:
     """The per-frame computation over all cameras. Holds only the current states.
 
     A small class because the driver, the viewer and the benchmark all step it; every stage
     inside is a pure ``step(state, inputs, cfg) -> (state, result)``.
+
+    ``camera_step``, when given, supplies every camera's result instead of the front end
+    (background, tracker, feet); the images and detections passed to :meth:`step` are then
+    ignored and the front-end states are never advanced.
     """
 
     def __init__(self, cameras: Sequence[CameraSpec], overlaps: Sequence[tuple[str, str]],
-                 params: Params, backgrounds: Mapping[str, BackgroundState]) -> None:
+                 params: Params, backgrounds: Mapping[str, BackgroundState],
+                 camera_step: CameraStep | None = None) -> None:
         self.cameras = tuple(cameras)
         self.params = params
+        self._replay = camera_step
         self._pair_cfg = PairConfigs.from_params(params)
         self._states = {
             c.name: _CameraState(backgrounds.get(c.name), tracker_init()) for c in self.cameras
@@ -170,6 +184,9 @@ class Pipeline:
         timer.ms["read"] = read_ms
         results = {}
         for cam in self.cameras:
+            if self._replay is not None:
+                results[cam.name] = self._replay(index, cam)
+                continue
             results[cam.name] = self._camera_step(cam, images.get(cam.name),
                                                   detections.get(cam.name), timer)
         pairs = {}

@@ -8,7 +8,15 @@ import rerun.blueprint as rrb
 
 from mvtrack.viz import paths
 
-__all__ = ["camera_view", "events_view", "ground_view", "metrics_view", "time_panel"]
+__all__ = [
+    "ALL_LEVELS",
+    "INFO_AND_ABOVE",
+    "camera_view",
+    "events_view",
+    "ground_view",
+    "metrics_view",
+    "time_panel",
+]
 
 OVERLAYS = ("image", "labels", "targets", "feet", "fov_events", "cues")
 """Layers of the main camera view, bottom to top (the frame and what was found on it)."""
@@ -26,8 +34,20 @@ def ground_view() -> rrb.View:
     return rrb.Spatial2DView(origin=paths.GROUND, name="ground plane (all cameras)")
 
 
-def events_view() -> rrb.View:
-    return rrb.TextLogView(origin=paths.EVENTS, name="events")
+INFO_AND_ABOVE = ("CRITICAL", "ERROR", "WARN", "INFO")
+"""Event levels the overview shows: tracker births, splits, merges and retirements are DEBUG."""
+
+ALL_LEVELS = (*INFO_AND_ABOVE, "DEBUG", "TRACE")
+"""Every level of ``rr.TextLogLevel``."""
+
+
+def events_view(levels: Sequence[str] = ALL_LEVELS) -> rrb.View:
+    """The event log, showing only lines of ``levels`` (the viewer's level filter starts there;
+    the user can tick the others back on in the view's selection panel)."""
+    hidden = [level for level in ALL_LEVELS if level not in levels]
+    name = "events" if not hidden else f"events ({', '.join(hidden)} hidden)"
+    rows = rrb.archetypes.TextLogRows(filter_by_log_level=list(levels))
+    return rrb.TextLogView(origin=paths.EVENTS, name=name, rows=rows)
 
 
 def metrics_view(name: str, origin: str) -> rrb.View:

@@ -20,7 +20,7 @@ terminal and in the last recording's event log; the last good thresholds stay in
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -28,9 +28,9 @@ from typing import Any
 import numpy as np
 import rerun as rr
 
-from mvtrack.io import CameraSpec, Clip, Detections, read_truth
+from mvtrack.io import Clip, Detections, read_truth
 from mvtrack.params import Params, ParamsError, load_params
-from mvtrack.pipeline import CameraResult, FrameResult, Pipeline, RunSummary, train_backgrounds
+from mvtrack.pipeline import CameraResult, Pipeline, RunSummary, train_backgrounds
 from mvtrack.viz import paths
 from mvtrack.viz.outputs import Outputs, Target, open_outputs
 from mvtrack.viz.session import layout_for, summary_figures
@@ -72,29 +72,6 @@ def describe_change(old: Params | None, new: Params) -> str:
         return "no change"
     more = f" (+{len(changed) - 3} more)" if len(changed) > 3 else ""
     return ", ".join(changed[:3]) + more
-
-
-class _CachedPipeline(Pipeline):
-    """A :class:`Pipeline` whose camera steps come from a finished run's results.
-
-    Used only with a complete cache (every frame of the range), so the skipped camera states
-    are never needed; the pair stages run as usual on the cached targets.
-    """
-
-    def __init__(self, cameras: Sequence[CameraSpec], overlaps: Sequence[tuple[str, str]],
-                 params: Params, cached: Mapping[int, Mapping[str, CameraResult]]) -> None:
-        super().__init__(cameras, overlaps, params, {})
-        self._cached = cached
-        self._index = -1
-
-    def step(self, index: int, images: Mapping[str, np.ndarray],
-             detections: Mapping[str, Detections], read_ms: float = 0.0) -> FrameResult:
-        self._index = index
-        return super().step(index, images, detections, read_ms)
-
-    def _camera_step(self, cam: CameraSpec, image: np.ndarray | None,
-                     dets: Detections | None, timer: Any) -> CameraResult:
-        return self._cached[self._index][cam.name]
 
 
 @dataclass
@@ -210,7 +187,9 @@ class Watcher:
         summary = RunSummary()
         steps: Iterator[tuple[int, Mapping[str, np.ndarray], Mapping[str, Detections]]]
         if cached:
-            pipeline: Pipeline = _CachedPipeline(spec.cameras, spec.overlaps, params, self._cache)
+            cache = self._cache  # complete (every frame of the range): no camera state needed
+            pipeline = Pipeline(spec.cameras, spec.overlaps, params, {},
+                                camera_step=lambda index, cam: cache[index][cam.name])
             steps = ((i, {}, {}) for i in self.frames)
         else:
             self.frontend_runs += 1
