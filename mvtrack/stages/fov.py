@@ -427,8 +427,9 @@ def estimate_line(
 
     With a homography from the edge camera to the seen one (once the pair has learned it), each
     event's crosser is known (the point nearest the mapped ``crosser_foot``): when at least
-    ``min_fov_events`` events have one, the line is their total-least-squares fit instead of
-    the Hough peak, which bystanders near the line can pull away.
+    ``min_fov_events`` events have one (or two or more spanning two body heights), the line is
+    their total-least-squares fit instead of the Hough peak, which bystanders near the line
+    can pull away.
     """
     if slot.n_events < cfg.min_fov_events or slot.accumulator is None:
         return slot
@@ -439,7 +440,11 @@ def estimate_line(
     best = hough.line
     if H_seen_from_edge is not None:
         crossers = _crosser_points(slot, H_seen_from_edge, cfg)
-        if len(crossers) >= max(cfg.min_fov_events, 2):
+        span = float(np.ptp(crossers, axis=0).max()) if len(crossers) else 0.0
+        heights = np.median(np.concatenate([e.heights for e in slot.events]))
+        if len(crossers) >= max(cfg.min_fov_events, 2) or (
+            len(crossers) >= 2 and span >= 2 * heights
+        ):
             best = _tls_line(crossers, np.ones(len(crossers)), hough.line)
     a, b, c = (float(v) for v in best)
     line = FovLine(slot.seen_in, slot.edge_of, slot.side, (a, b, c), slot.n_events, frame)
