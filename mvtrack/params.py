@@ -139,6 +139,29 @@ class BackgroundConfig(_Checked):
         400, "optical flow runs on the frame downscaled by an integer to at most this width", 16
     )
     gray_shadows: bool = param(True, "gray cameras: apply the V-ratio shadow test (else none)")
+    # Frame-difference motion: a blob whose pixels changed (|V_t - V_t-gap| > change_min_diff,
+    # at flow resolution) in at least min_changed_frac of its area moves even when its mean
+    # flow does not show it: small far people (DIS underestimates thin bodies) and blobs of
+    # people walking in opposite directions (their flow vectors cancel). A ghost does not change.
+    change_min_diff: float = param(
+        0.08, "motion: V difference over flow_gap_frames above which a pixel changed", 0.0, 1.0
+    )
+    min_changed_frac: float = param(
+        0.15, "motion: a blob with this share of changed pixels moves (0 = flow test only)",
+        0.0, 1.0,
+    )
+    # Edge ghost test (Sakbot literature): along a blob's boundary a real object has the frame's
+    # edges (its silhouette), a ghost has the background's (the object that left). A blob whose
+    # mean frame gradient on its boundary is below edge_ghost_ratio x the background's is a
+    # ghost whatever its motion says, so ghosts of people present in training fade.
+    edge_ghost_ratio: float = param(
+        1.0, "ghost when boundary |grad frame| < this x boundary |grad B| (0 = off)", 0.0, 10.0
+    )
+    # A person who stops fails the motion tests; a blob overlapping last frame's MVOs stays an
+    # MVO (if it passes the area, strength and edge tests) for at most this many frames in a row.
+    mvo_hold_frames: int = param(
+        50, "frames a non-moving blob overlapping last frame's MVO stays an MVO", 0, 100000
+    )
 
     def _check(self) -> None:
         if self.t_high <= self.t_low:

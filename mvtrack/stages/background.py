@@ -76,7 +76,9 @@ class _Model:
 
     bgr: (H,W,3) or (H,W) uint8 B; h, s, v: (H,W) uint8 planes (h, s None for gray);
     ratio_lo, ratio_hi: (H,W) uint8, the I_V range with α ≤ I_V/B_V ≤ β (lo > hi where B_V = 0);
-    colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat (both None for gray).
+    colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat (both None for gray);
+    grad: (H,W) uint8, |∂V/∂x| + |∂V/∂y| of B (Sobel, saturating), or None when the edge test
+    is off.
     """
 
     bgr: np.ndarray
@@ -87,6 +89,7 @@ class _Model:
     ratio_hi: np.ndarray
     colour: np.ndarray | None
     hue_ok: np.ndarray | None
+    grad: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +104,9 @@ class BackgroundState:
     recent_v:    up to ``flow_gap_frames`` previous frames' V planes at flow resolution, (h,w)
                  uint8, oldest first; empty before the first step
     frame_index: number of frames processed by :func:`background_step` so far
+    mvo_age:     (H,W) uint16, read-only, or None before the first step: last frame's MVO
+                 pixels, 1 + the frames in a row their blob was held without moving (1: it
+                 moved); 0 elsewhere
     """
 
     modality: str
@@ -108,6 +114,7 @@ class BackgroundState:
     model: _Model
     recent_v: tuple[np.ndarray, ...]
     frame_index: int
+    mvo_age: np.ndarray | None = None
 
     @property
     def background(self) -> np.ndarray:
@@ -124,8 +131,17 @@ class BlobTable:
     max_distance: (K,) float32, largest D_B in the blob, in [0, 1]
     mean_flow_px: (K,) float64, magnitude of the blob's mean optical-flow vector, px/frame
                   (NaN: no previous frame)
-    area_ok, strong_ok, flow_ok: (K,) bool, the three MVO tests (flow_ok is True when NaN)
-    is_mvo:       (K,) bool, all three tests passed
+    changed_frac: (K,) float64, share of its pixels whose V changed over the flow gap (NaN: no
+                  previous frame)
+    edge_frame, edge_background: (K,) float64, mean |gradient of V| (0..255) of the frame and
+                  of B on the blob's boundary pixels (NaN: edge test off)
+    area_ok, strong_ok, flow_ok: (K,) bool, the thesis's three MVO tests (flow_ok is True
+                  when NaN)
+    moving_ok:    (K,) bool, flow_ok or changed_frac >= min_changed_frac
+    edge_ok:      (K,) bool, not a ghost by the edge test (True when the test is off)
+    held:         (K,) bool, not moving but kept an MVO: it overlaps last frame's MVOs and
+                  has been held fewer than ``mvo_hold_frames`` frames in a row
+    is_mvo:       (K,) bool, area_ok & strong_ok & edge_ok & (moving_ok | held)
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
     box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
     """
@@ -134,9 +150,15 @@ class BlobTable:
     area_px: np.ndarray
     max_distance: np.ndarray
     mean_flow_px: np.ndarray
+    changed_frac: np.ndarray
+    edge_frame: np.ndarray
+    edge_background: np.ndarray
     area_ok: np.ndarray
     strong_ok: np.ndarray
     flow_ok: np.ndarray
+    moving_ok: np.ndarray
+    edge_ok: np.ndarray
+    held: np.ndarray
     is_mvo: np.ndarray
     mvo_label: np.ndarray
     box_xywh: np.ndarray
@@ -214,6 +236,7 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         colour = v > _u8_floor(cfg.colour_min_value)
         hue_ok = s > _u8_floor(cfg.hue_min_sat)
     lo_lut, hi_lut = _ratio_luts(cfg.shadow_alpha, cfg.shadow_beta)
+    grad = _readonly(_gradient(v)) if cfg.edge_ghost_ratio > 0 else None
     return _Model(
         bgr=bgr,
         h=h,
@@ -223,7 +246,15 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         ratio_hi=cv2.LUT(v, hi_lut),
         colour=colour,
         hue_ok=hue_ok,
+        grad=grad,
     )
+
+
+def _gradient(v: np.ndarray) -> np.ndarray:
+    """(H,W) uint8 |∂V/∂x| + |∂V/∂y| (3x3 Sobel / 4, saturating) of a (H,W) uint8 plane."""
+    gx = cv2.Sobel(v, cv2.CV_16S, 1, 0)
+    gy = cv2.Sobel(v, cv2.CV_16S, 0, 1)
+    return cv2.add(cv2.convertScaleAbs(gx, alpha=0.25), cv2.convertScaleAbs(gy, alpha=0.25))
 
 
 @lru_cache(maxsize=8)
@@ -340,28 +371,65 @@ def _mvo_labels(
     return mvo_labels, mvo_index
 
 
-def _blob_stats(
-    pixels: _BlobPixels,
-    stats: np.ndarray,
-    dist8: np.ndarray,
-    flow: np.ndarray | None,
-    flow_factor: int,
+@dataclass(frozen=True, eq=False)
+class _Motion:
+    """What the motion tests read: DIS flow (h,w,2) float32 px/frame and the changed map (h,w)
+    bool at flow resolution (``factor`` full-resolution px per flow px); None on the first
+    step after training."""
+
+    flow: np.ndarray | None
+    changed: np.ndarray | None
+    factor: int
+
+
+def _blob_motion(
+    pixels: _BlobPixels, area: np.ndarray, width: int, motion: _Motion
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per blob (labels 1..K): max D_B (uint8) and the magnitude of the mean flow vector
-    (px/frame, NaN: no flow)."""
-    k = stats.shape[0] - 1
-    idx, lab = pixels.index, pixels.label
-    max8 = np.zeros(k + 1, np.uint8)
-    np.maximum.at(max8, lab, dist8.ravel()[idx])
-    if flow is None:
-        return max8[1:], np.full(k, np.nan)
-    width = dist8.shape[1]
-    rows = np.minimum(idx // width // flow_factor, flow.shape[0] - 1)
-    cols = np.minimum(idx % width // flow_factor, flow.shape[1] - 1)
-    vectors = flow[rows, cols]  # (P, 2)
+    """Per blob (labels 1..K, area (K,)): the magnitude of the mean flow vector (px/frame) and
+    the share of changed pixels; NaN without a previous frame."""
+    k = len(area)
+    if motion.flow is None or motion.changed is None:
+        return np.full(k, np.nan), np.full(k, np.nan)
+    idx, lab, f = pixels.index, pixels.label, motion.factor
+    rows = np.minimum(idx // width // f, motion.flow.shape[0] - 1)
+    cols = np.minimum(idx % width // f, motion.flow.shape[1] - 1)
+    vectors = motion.flow[rows, cols]  # (P, 2)
+    area = np.maximum(area, 1)
     sum_x = np.bincount(lab, weights=vectors[:, 0], minlength=k + 1)[1:]
     sum_y = np.bincount(lab, weights=vectors[:, 1], minlength=k + 1)[1:]
-    return max8[1:], np.hypot(sum_x, sum_y) / np.maximum(stats[1:, cv2.CC_STAT_AREA], 1)
+    changed = np.bincount(lab, weights=motion.changed[rows, cols], minlength=k + 1)[1:]
+    return np.hypot(sum_x, sum_y) / area, changed / area
+
+
+def _blob_edges(
+    candidate: np.ndarray, blob_labels: np.ndarray, v: np.ndarray, model: _Model, k: int
+) -> tuple[np.ndarray, np.ndarray]:
+    """Per blob (labels 1..K): mean frame and background gradient (0..255) on its boundary
+    (candidate pixels with a non-candidate 8-neighbour); NaN when the edge test is off."""
+    if model.grad is None:
+        return np.full(k, np.nan), np.full(k, np.nan)
+    inner = cv2.erode(candidate.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
+    index = np.flatnonzero(candidate & ~inner)
+    lab = blob_labels.ravel()[index]
+    count = np.maximum(np.bincount(lab, minlength=k + 1)[1:], 1)
+    frame_grad = _gradient(v).ravel()[index]
+    bg_grad = model.grad.ravel()[index]
+    frame = np.bincount(lab, weights=frame_grad, minlength=k + 1)[1:] / count
+    background = np.bincount(lab, weights=bg_grad, minlength=k + 1)[1:] / count
+    return frame, background
+
+
+def _blob_hold_age(pixels: _BlobPixels, mvo_age: np.ndarray | None, k: int) -> np.ndarray:
+    """Per blob (labels 1..K): the smallest last-frame MVO age among its pixels, int64; 0 when
+    it overlaps no MVO of the last frame."""
+    if mvo_age is None:
+        return np.zeros(k, np.int64)
+    ages = mvo_age.ravel()[pixels.index].astype(np.int64)
+    hit = ages > 0
+    least = np.full(k + 1, np.iinfo(np.int64).max)
+    np.minimum.at(least, pixels.label[hit], ages[hit])
+    least[least == np.iinfo(np.int64).max] = 0
+    return least[1:]
 
 
 def _flow(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
@@ -375,37 +443,58 @@ def _flow(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
     return back * np.float32(-factor)
 
 
+@dataclass(frozen=True, eq=False)
+class _BlobEvidence:
+    """Per-blob measurements (K,) that the MVO tests read (see :class:`BlobTable`)."""
+
+    max8: np.ndarray
+    mean_flow: np.ndarray
+    changed_frac: np.ndarray
+    edge_frame: np.ndarray
+    edge_background: np.ndarray
+    hold_age: np.ndarray
+
+
 def _blob_table(
-    pixels: _BlobPixels,
-    stats: np.ndarray,
-    dist8: np.ndarray,
-    flow: np.ndarray | None,
-    flow_factor: int,
-    cfg: BackgroundConfig,
-) -> BlobTable:
+    stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig
+) -> tuple[BlobTable, np.ndarray]:
+    """The blob table and each blob's new MVO age (K,) int64 (0 for ghosts)."""
     k = stats.shape[0] - 1
-    max8, mean_flow = _blob_stats(pixels, stats, dist8, flow, flow_factor)
     area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
     area_ok = area > cfg.min_area_px
-    strong_ok = max8 > _u8_floor(cfg.t_high)
-    flow_ok = np.isnan(mean_flow) | (mean_flow > cfg.min_mean_flow_px)
-    is_mvo = area_ok & strong_ok & flow_ok
+    strong_ok = ev.max8 > _u8_floor(cfg.t_high)
+    flow_ok = np.isnan(ev.mean_flow) | (ev.mean_flow > cfg.min_mean_flow_px)
+    changed_ok = (cfg.min_changed_frac > 0) & (ev.changed_frac >= cfg.min_changed_frac)
+    moving_ok = flow_ok | changed_ok
+    with np.errstate(invalid="ignore"):
+        edge_ok = ~(ev.edge_frame < cfg.edge_ghost_ratio * ev.edge_background)
+    still_ok = area_ok & strong_ok & edge_ok
+    held = still_ok & ~moving_ok & (ev.hold_age > 0) & (ev.hold_age <= cfg.mvo_hold_frames)
+    is_mvo = still_ok & (moving_ok | held)
+    age = np.where(held, ev.hold_age + 1, 1) * is_mvo
     mvo_label = np.zeros(k, np.int32)
     mvo_label[is_mvo] = np.arange(1, int(is_mvo.sum()) + 1, dtype=np.int32)
     box = stats[1:, :4].astype(np.float64)
     box[:, :2] -= 0.5
-    return BlobTable(
+    table = BlobTable(
         label=np.arange(1, k + 1, dtype=np.int32),
         area_px=area,
-        max_distance=max8.astype(np.float32) / np.float32(255.0),
-        mean_flow_px=mean_flow,
+        max_distance=ev.max8.astype(np.float32) / np.float32(255.0),
+        mean_flow_px=ev.mean_flow,
+        changed_frac=ev.changed_frac,
+        edge_frame=ev.edge_frame,
+        edge_background=ev.edge_background,
         area_ok=area_ok,
         strong_ok=strong_ok,
         flow_ok=flow_ok,
+        moving_ok=moving_ok,
+        edge_ok=edge_ok,
+        held=held,
         is_mvo=is_mvo,
         mvo_label=mvo_label,
         box_xywh=box,
     )
+    return table, age
 
 
 def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray) -> np.ndarray:
@@ -537,6 +626,19 @@ def _update(
     return fifo, _model(lower_median(samples), state.modality, cfg)
 
 
+def _motion(
+    state: BackgroundState, flow_gray: np.ndarray, factor: int, k: int, cfg: BackgroundConfig
+) -> _Motion:
+    """Flow and changed map of the current frame against the oldest kept one, per frame of the
+    gap; none when there are no blobs or no previous frame."""
+    if k == 0 or not state.recent_v:
+        return _Motion(None, None, factor)
+    prev = state.recent_v[0]
+    flow = _flow(prev, flow_gray, factor) / np.float32(len(state.recent_v))
+    changed = cv2.absdiff(prev, flow_gray) > _u8_floor(cfg.change_min_diff)
+    return _Motion(flow, changed, factor)
+
+
 def background_step(
     state: BackgroundState, frame: np.ndarray, cfg: BackgroundConfig
 ) -> tuple[BackgroundState, BackgroundResult]:
@@ -560,15 +662,23 @@ def background_step(
     blob_labels, stats = _group_fragments(comp_labels, comp_stats, cfg)
     assert planes[2] is not None
     flow_gray = _flow_gray(planes[2], cfg)
-    factor = frame.shape[1] // flow_gray.shape[1]
-    flow = None
-    if stats.shape[0] > 1 and state.recent_v:
-        gap = len(state.recent_v)
-        flow = _flow(state.recent_v[0], flow_gray, factor) / np.float32(gap)
+    k = stats.shape[0] - 1
+    motion = _motion(state, flow_gray, frame.shape[1] // flow_gray.shape[1], k, cfg)
     pixels = _blob_pixels(candidate, blob_labels)
-    blobs = _blob_table(pixels, stats, dist8, flow, factor, cfg)
+    max8 = np.zeros(k + 1, np.uint8)
+    np.maximum.at(max8, pixels.label, dist8.ravel()[pixels.index])
+    evidence = _BlobEvidence(
+        max8[1:],
+        *_blob_motion(pixels, stats[1:, cv2.CC_STAT_AREA], frame.shape[1], motion),
+        *_blob_edges(candidate, blob_labels, planes[2], state.model, k),
+        _blob_hold_age(pixels, state.mvo_age, k),
+    )
+    blobs, age = _blob_table(stats, evidence, cfg)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
+    mvo_age = np.zeros(candidate.shape, np.uint16)
+    age_of_mvo = np.minimum(age[blobs.is_mvo], 65535)  # in MVO label order
+    mvo_age.ravel()[mvo_index] = age_of_mvo[mvo_labels.ravel()[mvo_index] - 1]
     fg_shadow = _split_shadows(shadow, mvo, mvo_index)
     fifo, model = _update(state, frame, mvo | fg_shadow, cfg)
     result = BackgroundResult(
@@ -590,5 +700,6 @@ def background_step(
         model=model,
         recent_v=(*state.recent_v, flow_gray)[-cfg.flow_gap_frames :],
         frame_index=state.frame_index + 1,
+        mvo_age=_readonly(mvo_age),
     )
     return new_state, result
