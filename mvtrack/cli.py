@@ -360,16 +360,24 @@ def bench(
     ] = None,
     frames: Annotated[int, typer.Option(help="Frames per clip.")] = 150,
     json_out: Annotated[
-        Path | None, typer.Option("--json", help="Also write the table here.")
+        Path | None, typer.Option("--json", help="Also write the tables here.")
     ] = None,
+    viewer: Annotated[bool, typer.Option(
+        "--viewer/--no-viewer",
+        help="Also time the whole pipeline with the viewer sink off and on (saving an .rrd) on "
+             "the generated 768x576 two-camera clip (or the first clip given).")] = True,
+    log_thread: Annotated[bool, typer.Option(
+        "--log-thread/--no-log-thread", help="Viewer sink logs on its background thread.")] = True,
 ) -> None:
-    """Front-end throughput (camera-frames/s) against OpenCV MOG2, and memory growth."""
+    """Front-end throughput (camera-frames/s) against OpenCV MOG2, memory growth, and the
+    viewer's logging cost (frame-pairs/s off and on, KiB per frame-pair, ms per stage)."""
     import tempfile
 
     from mvtrack.bench import bench_frontend
 
     params = load_params()
     rows = []
+    report: dict[str, Any] = {}
     with tempfile.TemporaryDirectory() as tmp:
         if not clips:
             from mvtrack.generate import generate_clip
@@ -385,14 +393,41 @@ def bench(
                 name, imgs, modality = _first_frames(clip, frames)
             err.print(f"timing {name} ({len(imgs)} frames)...")
             rows.append(bench_frontend(name, imgs, modality, params).as_dict())
-    table = Table(title="front end vs MOG2 (one thread, camera-frames per second)")
+        if viewer:
+            report = _bench_viewer(clips[0], frames, params, Path(tmp), log_thread)
+    _print_rows("front end vs MOG2 (one thread, camera-frames per second)", rows)
+    if report:
+        _print_rows("viewer logging cost (frame sets per second, sink off / on, .rrd saved)",
+                    [report["viewer_logging"]])
+        _print_rows("ms per frame set by stage, same two runs (share: of the 'off' wall time)",
+                    report["stages_ms"])
+    if json_out is not None:
+        data: Any = rows if not report else {"front_end": rows, **report}
+        json_out.write_text(json.dumps(data, indent=2) + "\n")
+
+
+def _print_rows(title: str, rows: list[dict[str, Any]]) -> None:
+    table = Table(title=title)
     for key in rows[0]:
         table.add_column(key)
     for row in rows:
         table.add_row(*(str(v) for v in row.values()))
     out.print(table)
-    if json_out is not None:
-        json_out.write_text(json.dumps(rows, indent=2) + "\n")
+
+
+def _bench_viewer(clip: Path, frames: int, params: Params, tmp: Path,
+                  thread: bool) -> dict[str, Any]:
+    """``mvtrack bench``'s viewer table: :func:`mvtrack.viz.bench.bench_logging` on ``clip``."""
+    from mvtrack.io import open_clip
+    from mvtrack.viz.bench import bench_logging
+    from mvtrack.viz.sink import LogOptions
+
+    with open_clip(clip) as opened:
+        rng = range(min(frames, opened.spec.frame_count))
+        err.print(f"timing the pipeline with the viewer sink off and on ({clip.name}, "
+                  f"{len(rng)} frames)...")
+        result = bench_logging(opened, params, rng, tmp, LogOptions(thread=thread))
+    return {"viewer_logging": result.as_dict(), "stages_ms": result.stage_rows()}
 
 
 def _pets_frames(folder: Path, n: int) -> list[Any]:

@@ -5,20 +5,22 @@
 
 Both runs go through :func:`mvtrack.pipeline.run` on the same frames (decoding included in
 both); "on" logs every layer of :class:`~mvtrack.viz.sink.LogOptions` to an .rrd file, whose
-size gives the bytes per frame. The logging thread of the Rerun SDK runs concurrently, so the
-file is flushed before it is measured.
+size gives the bytes per frame. The "on" time runs until the sink's logging thread has logged
+everything and the file is closed, so it is the wall time a user waits. Per-stage milliseconds
+come from the same two runs, so the bound (which stage, or logging) is read off one table even
+on a machine shared with other work.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from mvtrack.io import Clip
 from mvtrack.params import Params
-from mvtrack.pipeline import run
+from mvtrack.pipeline import STAGES, RunSummary, run
 from mvtrack.viz.outputs import Target, open_outputs
 from mvtrack.viz.sink import LogOptions, RerunSink, new_recording
 
@@ -29,8 +31,14 @@ __all__ = ["LoggingBench", "bench_logging"]
 class LoggingBench:
     """Frame sets (all cameras of one clip frame) per second without and with logging.
 
-    log_ms_per_frame: time spent inside the sink per frame set (building + handing over)
+    fps_off, fps_on:  frame sets per second, wall time (training excluded), sink off / on
+    log_ms_per_frame: time spent building and handing over one frame set's layers (on the
+                      logging thread when it runs, overlapping the pipeline)
     bytes_per_frame:  recording size / frames
+    stage_ms_off, stage_ms_on: per stage (:data:`~mvtrack.pipeline.STAGES`), milliseconds per
+                      frame set, all cameras, in each run
+    clip_fps:         the clip's frame rate (real time)
+    thread:           whether the sink logged on its background thread
     """
 
     name: str
@@ -41,8 +49,13 @@ class LoggingBench:
     fps_on: float
     log_ms_per_frame: float
     bytes_per_frame: float
+    stage_ms_off: dict[str, float] = field(default_factory=dict)
+    stage_ms_on: dict[str, float] = field(default_factory=dict)
+    clip_fps: float = 25.0
+    thread: bool = True
 
     def as_dict(self) -> dict[str, Any]:
+        """The table row: sizes, fps off/on, their ratio, real-time factors, log ms, KiB."""
         return {
             "clip": self.name,
             "cameras": self.cameras,
@@ -50,25 +63,38 @@ class LoggingBench:
             "frames": self.frames,
             "fps_viewer_off": round(self.fps_off, 1),
             "fps_viewer_on": round(self.fps_on, 1),
+            "on_over_off": round(self.fps_on / max(self.fps_off, 1e-9), 2),
+            "realtime_on": round(self.fps_on / max(self.clip_fps, 1e-9), 2),
             "log_ms_per_frame": round(self.log_ms_per_frame, 2),
             "kib_per_frame": round(self.bytes_per_frame / 1024.0, 1),
         }
 
+    def stage_rows(self) -> list[dict[str, Any]]:
+        """Per stage: ms per frame set off / on and its share of the "off" wall time; then the
+        logging thread's ms and the wall time per frame set of each run."""
+        wall_off = 1000.0 / max(self.fps_off, 1e-9)
+        wall_on = 1000.0 / max(self.fps_on, 1e-9)
+        rows = [{"stage": s, "ms_off": round(self.stage_ms_off.get(s, 0.0), 1),
+                 "ms_on": round(self.stage_ms_on.get(s, 0.0), 1),
+                 "share_of_off": round(self.stage_ms_off.get(s, 0.0) / wall_off, 2)}
+                for s in STAGES]
+        rows.append({"stage": "logging (thread)" if self.thread else "logging",
+                     "ms_off": 0.0, "ms_on": round(self.log_ms_per_frame, 1),
+                     "share_of_off": round(self.log_ms_per_frame / wall_off, 2)})
+        rows.append({"stage": "wall", "ms_off": round(wall_off, 1), "ms_on": round(wall_on, 1),
+                     "share_of_off": 1.0})
+        return rows
 
-class _TimedSink:
-    def __init__(self, sink: RerunSink) -> None:
-        self.sink = sink
-        self.seconds = 0.0
 
-    def on_frame(self, result: Any) -> None:
-        start = time.perf_counter()
-        self.sink.on_frame(result)
-        self.seconds += time.perf_counter() - start
+def _per_frame_ms(summary: RunSummary) -> dict[str, float]:
+    n = max(summary.frames, 1)
+    return {s: 1000.0 * v / n for s, v in summary.stage_seconds.items()}
 
 
 def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
                   options: LogOptions | None = None) -> LoggingBench:
     """Time ``frames`` of ``clip`` without sinks, then logging to ``out_dir/bench.rrd``."""
+    opts = options or LogOptions()
     start = time.perf_counter()
     off = run(clip, params, frames, [])
     off_s = time.perf_counter() - start - off.train_seconds
@@ -76,10 +102,13 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
     rrd = out_dir / "bench.rrd"
     rec = new_recording(f"bench {clip.spec.root.name}", deterministic=True)
     outputs = open_outputs(rec, Target(save=rrd, viewer="none"), _blueprint(clip))
-    timed = _TimedSink(RerunSink(rec, clip.spec, params, options, frames=frames))
     start = time.perf_counter()
-    on = run(clip, params, frames, [timed])
-    outputs.close()  # the file is complete once the SDK has written everything
+    sink = RerunSink(rec, clip.spec, params, opts, frames=frames)
+    try:
+        on = run(clip, params, frames, [sink])
+    finally:
+        sink.close()  # the logging thread has logged every frame
+        outputs.close()  # the file is complete once the SDK has written everything
     on_s = time.perf_counter() - start - on.train_seconds
 
     cam = clip.spec.cameras[0]
@@ -87,7 +116,9 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
     return LoggingBench(
         name=clip.spec.root.name, cameras=len(clip.spec.cameras), size=cam.size,
         frames=on.frames, fps_off=off.frames / max(off_s, 1e-9), fps_on=on.frames / max(on_s, 1e-9),
-        log_ms_per_frame=1000.0 * timed.seconds / n, bytes_per_frame=rrd.stat().st_size / n,
+        log_ms_per_frame=1000.0 * sink.log_seconds / n, bytes_per_frame=rrd.stat().st_size / n,
+        stage_ms_off=_per_frame_ms(off), stage_ms_on=_per_frame_ms(on), clip_fps=clip.spec.fps,
+        thread=opts.thread,
     )
 
 

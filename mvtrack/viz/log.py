@@ -35,6 +35,18 @@ __all__ = [
 _HALF_PX = 0.5  # mvtrack pixel centres are integers; Rerun's are at +0.5
 
 
+def _mask_codes() -> np.ndarray:
+    """(256,) uint8: bit set (1 MVO, 2 ghost, 4 fg shadow, 8 ghost shadow) -> the layer's code,
+    the first of MVO, ghost, foreground shadow, ghost shadow that is set (0: none)."""
+    table = np.zeros(256, np.uint8)
+    for bits in range(16):
+        table[bits] = next((code for code in (1, 2, 3, 4) if bits & (1 << (code - 1))), 0)
+    return table
+
+
+_MASK_CODES = _mask_codes()
+
+
 @dataclass(frozen=True)
 class ImageOptions:
     """How camera images are encoded.
@@ -83,11 +95,11 @@ def distance_layer(distance: np.ndarray, opts: ImageOptions) -> rr.AsComponents:
 def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
                 ghost_shadow: np.ndarray) -> rr.SegmentationImage:
     """One coded (H,W) uint8 image of the four (H,W) bool masks (:data:`paths.MASK_LAYER`)."""
-    codes = np.zeros(mvo.shape, np.uint8)
-    codes[ghost_shadow] = 4
-    codes[fg_shadow] = 3
-    codes[ghost] = 2
-    codes[mvo] = 1
+    bits = [np.ascontiguousarray(m).view(np.uint8) for m in (mvo, ghost, fg_shadow, ghost_shadow)]
+    packed = bits[0].copy()  # bool -> 0/1 bytes, one bit per mask
+    for k in (1, 2, 3):
+        packed |= bits[k] << k
+    codes = np.asarray(cv2.LUT(packed, _MASK_CODES), np.uint8)
     return rr.SegmentationImage(codes, opacity=0.6, draw_order=-5.0)
 
 
@@ -115,7 +127,12 @@ def metas_image(label_image: np.ndarray, labels: np.ndarray, metas: np.ndarray) 
     if len(labels) == 0:
         return np.zeros(label_image.shape, np.uint8)
     dtype = np.uint8 if int(metas.max()) < 256 else np.uint16
-    lut = np.zeros(int(max(labels.max(), label_image.max())) + 1, dtype)
+    top = int(max(labels.max(), label_image.max()))
+    if top < 256:  # OpenCV's table look-up: 3x faster than np.take and without the GIL
+        table: np.ndarray = np.zeros(256, dtype)
+        table[labels] = metas
+        return np.asarray(cv2.LUT(label_image.astype(np.uint8), table))
+    lut = np.zeros(top + 1, dtype)
     lut[labels] = metas
     return np.take(lut, label_image)
 

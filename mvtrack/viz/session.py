@@ -7,6 +7,7 @@ Used by ``mvtrack-view``, ``--watch`` and the logging benchmark.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable, Sequence
 from pathlib import Path
 
@@ -16,7 +17,6 @@ import rerun.blueprint as rrb
 from mvtrack.io import Clip, read_truth
 from mvtrack.params import Params
 from mvtrack.pipeline import RunSummary, run
-from mvtrack.viz import paths
 from mvtrack.viz.sink import LogOptions, RerunSink
 
 __all__ = ["layout_for", "record_run", "summary_figures"]
@@ -50,21 +50,23 @@ def record_run(clip: Clip, params: Params, frames: range, rec: rr.RecordingStrea
     """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks).
 
     Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
-    error and re-raised. Either way everything logged so far is flushed, so a saved recording
-    stays readable.
+    error and re-raised. Either way everything logged so far is flushed and the sink's logging
+    thread has stopped, so a saved recording stays readable.
     """
     truth = read_truth(clip.spec.root, [c.name for c in clip.spec.cameras]) \
         if clip.spec.truth_dir else None
     sink = RerunSink(rec, clip.spec, params, options, truth=truth, frames=frames)
     try:
         summary = run(clip, params, frames, [sink], progress=progress)
+        if summary.interrupted:
+            sink.warn(f"interrupted after {summary.frames} frames")
+        sink.log_summary(summary_figures(sink, summary))
     except Exception as exc:
-        rec.log(paths.EVENTS, rr.TextLog(f"run failed: {type(exc).__name__}: {exc}",
-                                         level=rr.TextLogLevel.ERROR))
+        with contextlib.suppress(Exception):  # a logging error already raised: log the rest
+            sink.event(f"run failed: {type(exc).__name__}: {exc}", rr.TextLogLevel.ERROR)
+        with contextlib.suppress(Exception):
+            sink.close()
         rec.flush()
         raise
-    if summary.interrupted:
-        sink.warn(f"interrupted after {summary.frames} frames")
-    sink.log_summary(summary_figures(sink, summary))
-    rec.flush()
+    sink.close()
     return sink, summary

@@ -10,14 +10,26 @@ Paths come from :mod:`mvtrack.viz.paths`; layers switched off in :class:`LogOpti
 built (building archetypes costs time even when nothing listens). The sink keeps only what
 the event log and the ground map need from one frame to the next (previous links, marker
 counts), never the per-frame records.
+
+**Logging thread.** By default (``LogOptions.thread``) the frames are encoded and logged on one
+background thread while the pipeline computes the next frame: JPEG encoding, the SDK's
+serialisation and most numpy work release the GIL, so on two cores logging mostly overlaps the
+pipeline. Everything (frames, events, warnings, the summary) goes through that one thread in
+call order, so the recording is the same as logging inline. At most ``LogOptions.queue_frames``
+results wait (the pipeline blocks beyond that: memory stays flat). The pipeline's records are
+read-only, so handing them to another thread is safe. :meth:`RerunSink.close` (or
+:meth:`RerunSink.drain`) waits for the thread; an exception raised while logging re-raises in
+the caller at the next call.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import queue
+import threading
 import time
 import uuid
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -57,6 +69,8 @@ class LogOptions:
     background_every:  log the background B every N frames (it changes slowly); 0: never
     distance, masks, labels, blobs: per-camera layers on/off
     pairs, ground:     pair layers and the ground map on/off
+    thread:            log on a background thread (same recording, overlaps the pipeline)
+    queue_frames:      results the thread may lag behind the pipeline (>= 1)
     """
 
     images: ImageOptions = dataclasses.field(default_factory=ImageOptions)
@@ -67,6 +81,59 @@ class LogOptions:
     blobs: bool = True
     pairs: bool = True
     ground: bool = True
+    thread: bool = True
+    queue_frames: int = 3
+
+
+class _LogThread:
+    """One daemon thread running submitted calls in order; errors re-raise in the submitter."""
+
+    def __init__(self, name: str, queue_frames: int) -> None:
+        self._queue: queue.Queue[tuple[Callable[..., None], tuple[Any, ...]] | None] = \
+            queue.Queue(maxsize=max(1, queue_frames))
+        self._error: BaseException | None = None
+        self.busy_seconds = 0.0  # time spent running calls
+        self.thread = threading.Thread(target=self._loop, name=name, daemon=True)
+        self.thread.start()
+
+    def _loop(self) -> None:
+        while True:
+            item = self._queue.get()
+            try:
+                if item is None:
+                    return
+                if self._error is None:  # after an error, drop the rest
+                    start = time.perf_counter()
+                    fn, args = item
+                    fn(*args)
+                    self.busy_seconds += time.perf_counter() - start
+            except BaseException as exc:  # handed to the submitting thread
+                self._error = exc
+            finally:
+                self._queue.task_done()
+
+    def _raise(self) -> None:
+        if self._error is not None:
+            error, self._error = self._error, None
+            raise error
+
+    def submit(self, fn: Callable[..., None], *args: Any) -> None:
+        self._raise()
+        if not self.thread.is_alive():
+            raise RuntimeError("the logging thread was closed")
+        self._queue.put((fn, args))
+
+    def drain(self) -> None:
+        """Wait until every submitted call has run; re-raise the first error."""
+        if self.thread.is_alive():
+            self._queue.join()
+        self._raise()
+
+    def close(self) -> None:
+        if self.thread.is_alive():
+            self._queue.put(None)
+            self.thread.join()
+        self._raise()
 
 
 def new_recording(name: str, deterministic: bool = False) -> rr.RecordingStream:
@@ -151,7 +218,24 @@ class RerunSink:
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self.frames_logged = 0
+        self.log_seconds = 0.0  # time spent building and handing over frames (any thread)
+        self._thread: _LogThread | None = None
         self._log_static(params, frames if frames is not None else range(spec.frame_count))
+        self._thread = _LogThread("mvtrack-log", self.options.queue_frames) \
+            if self.options.thread else None
+
+    def _submit(self, fn: Callable[..., None], *args: Any) -> None:
+        """Run ``fn(*args)`` on the logging thread (in order), or now without one."""
+        worker = self._thread
+        if worker is None or threading.current_thread() is worker.thread:
+            fn(*args)
+        else:
+            worker.submit(fn, *args)
+
+    def drain(self) -> None:
+        """Wait until everything handed to the sink is logged (re-raises a logging error)."""
+        if self._thread is not None:
+            self._thread.drain()
 
     # ----------------------------------------------------------------------------- static
 
@@ -201,15 +285,22 @@ class RerunSink:
 
     def warn(self, message: str) -> None:
         """A warning in the event log."""
-        self.rec.log(paths.EVENTS, rr.TextLog(message, level=rr.TextLogLevel.WARN))
+        self.event(message, rr.TextLogLevel.WARN)
 
     def event(self, message: str, level: Any = rr.TextLogLevel.INFO) -> None:
-        """One line in the event log at the current time."""
+        """One line in the event log at the current time (the last logged frame)."""
+        self._submit(self._log_event, message, level)
+
+    def _log_event(self, message: str, level: Any) -> None:
         self.rec.log(paths.EVENTS, rr.TextLog(message, level=level))
 
     # ----------------------------------------------------------------------------- frames
 
     def on_frame(self, result: FrameResult) -> None:
+        """Log every layer of ``result`` (on the logging thread when there is one)."""
+        self._submit(self._log_frame, result)
+
+    def _log_frame(self, result: FrameResult) -> None:
         start = time.perf_counter()
         rec = self.rec
         rec.set_time(paths.FRAME_TIMELINE, sequence=result.index)
@@ -233,7 +324,9 @@ class RerunSink:
         if self.options.ground:
             self._log_ground(result, pairs)
         self.frames_logged += 1
-        rec.log(paths.log_ms(), rr.Scalars(1000.0 * (time.perf_counter() - start)))
+        seconds = time.perf_counter() - start
+        self.log_seconds += seconds
+        rec.log(paths.log_ms(), rr.Scalars(1000.0 * seconds))
 
     def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray, index: int) -> None:
         rec, opts = self.rec, self.options
@@ -309,6 +402,7 @@ class RerunSink:
 
     def mean_foot_errors(self) -> dict[str, float]:
         """Per camera, the mean foot error (px) over every matched target so far (truth only)."""
+        self.drain()
         return {k: total / count for k, (total, count) in self._foot_sums.items() if count}
 
     # ----------------------------------------------------------------------------- pairs
@@ -391,10 +485,15 @@ class RerunSink:
     def log_summary(self, values: Mapping[str, float]) -> None:
         """A run's summary figures (``--watch``), static on ``/metrics/summary``."""
         fields: dict[str, Any] = dict(values)
-        self.rec.log(paths.SUMMARY, rr.AnyValues(**fields), static=True)
+        self._submit(lambda: self.rec.log(paths.SUMMARY, rr.AnyValues(**fields), static=True))
 
     def close(self) -> None:
-        """Flush everything logged so far (the caller disconnects or ends the stream)."""
-        self.rec.flush()
+        """Log everything handed over, stop the logging thread and flush the stream (the caller
+        disconnects or ends it). Re-raises an error raised while logging."""
+        try:
+            if self._thread is not None:
+                self._thread.close()
+        finally:
+            self.rec.flush()
 
 

@@ -176,9 +176,11 @@ class Watcher:
                          frames=self.frames)
         cached = self.cache_enabled and self._cache_key == front_end_key(params) \
             and len(self._cache) == len(self.frames)
-        summary = self._drive(params, sink, cached)
-        sink.log_summary(summary_figures(sink, summary))
-        rec.flush()
+        try:
+            summary = self._drive(params, sink, cached)
+            sink.log_summary(summary_figures(sink, summary))
+        finally:
+            sink.close()  # the logging thread ends with the run
         self.good = params
         return WatchRun(ran=True, name=name, summary=summary, frontend_cached=cached)
 
