@@ -4,6 +4,7 @@ the pipeline's replay hook, the overview's event filter and the logging benchmar
 from __future__ import annotations
 
 import ast
+import shutil
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -15,7 +16,7 @@ from rerun.chunk import RrdReader
 from test_viz_scene import write_scene_clip
 
 import viewer_blueprints
-from mvtrack.io import open_clip
+from mvtrack.io import ClipError, open_clip
 from mvtrack.params import Params, load_params
 from mvtrack.pipeline import STAGES, FrameResult, Pipeline, run
 from mvtrack.viz import paths
@@ -199,3 +200,40 @@ def test_bench_table_splits_the_wall_time_by_stage(scene: Path, tmp_path: Path) 
     assert d["on_over_off"] == pytest.approx(d["fps_viewer_on"] / d["fps_viewer_off"], abs=0.02)
     assert d["realtime_on"] == pytest.approx(d["fps_viewer_on"] / 25.0, abs=0.02)
     assert 1.0 < d["kib_per_frame"] < 200.0
+
+
+# ------------------------------------------------------------------------ clip read-ahead
+
+
+def _read_all(clip_dir: Path, prefetch: bool, stop: int | None = None
+              ) -> tuple[list[int], list[bytes], BaseException | None]:
+    indices: list[int] = []
+    digests: list[bytes] = []
+    error: BaseException | None = None
+    with open_clip(clip_dir) as clip:
+        try:
+            for fs in clip.frames(prefetch=prefetch):
+                indices.append(fs.index)
+                digests.append(b"".join(fs.images[c].tobytes()[::997] for c in sorted(fs.images)))
+                if stop is not None and fs.index == stop:
+                    break
+        except ClipError as exc:
+            error = exc
+    return indices, digests, error
+
+
+def test_read_ahead_yields_the_same_frames_and_errors_at_the_same_frame(
+        scene: Path, tmp_path: Path) -> None:
+    ahead, plain = _read_all(scene, True), _read_all(scene, False)
+    assert ahead[0] == plain[0] == list(range(N_FRAMES))
+    assert ahead[1] == plain[1] and ahead[2] is None
+    assert _read_all(scene, True, stop=3)[0] == [0, 1, 2, 3]  # leaving early is clean
+
+    broken = tmp_path / "broken"
+    shutil.copytree(scene, broken)
+    frame = sorted((broken / "cam1").iterdir())[5]
+    frame.write_bytes(frame.read_bytes()[:40] + b"\0" * 64)  # header intact, pixels gone
+    for prefetch in (True, False):
+        indices, _, error = _read_all(broken, prefetch)
+        assert indices == [0, 1, 2, 3, 4], prefetch
+        assert isinstance(error, ClipError) and frame.name in str(error)

@@ -31,6 +31,9 @@ Decisions beyond FORMATS.md (documented here, tested in tests/test_clip.py):
   stops the iteration cleanly; :attr:`Clip.warnings` then says where (and it is logged).
 - Seeking to a range's start reads and discards frames (``grab``), which is exact for every codec
   (``CAP_PROP_POS_FRAMES`` is not).
+- :meth:`Clip.frames` decodes the next frame set on a background thread while the caller works
+  on the current one (decoding releases the GIL); frames, errors and warnings arrive exactly
+  as without it (``prefetch=False``), each error at the frame set it belongs to.
 """
 
 from __future__ import annotations
@@ -39,8 +42,10 @@ import logging
 import math
 import re
 import struct
+import threading
 import tomllib
 from collections.abc import Iterator, Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, replace
 from itertools import combinations
 from pathlib import Path
@@ -517,6 +522,7 @@ class Clip:
         self._detections = detections
         self._late: list[str] = []
         self._open: set[_VideoReader | _FolderReader] = set()
+        self._lock = threading.Lock()  # held while a frame set is read and while closing
         self._empty = Detections.empty()
 
     @property
@@ -524,12 +530,13 @@ class Clip:
         """``spec.warnings`` plus what reading found (a stream that ended early)."""
         return self.spec.warnings + tuple(self._late)
 
-    def frames(self, frames: range | None = None) -> Iterator[FrameSet]:
+    def frames(self, frames: range | None = None, prefetch: bool = True) -> Iterator[FrameSet]:
         """Synchronized frame sets for the clip frames in ``frames`` (default: all).
 
         ``frames`` must lie in ``[0, frame_count)`` with a positive step. Reading starts at
         ``frames.start`` (earlier video frames are decoded and discarded); only the current
-        frame set is held. If a stream ends before its header said, iteration stops there and
+        frame set is held, and with ``prefetch`` the next one, decoded on a background thread
+        meanwhile. If a stream ends before its header said, iteration stops there and
         :attr:`warnings` says so.
 
         Raises:
@@ -540,7 +547,7 @@ class Clip:
         rng = range(n) if frames is None else frames
         if rng.step <= 0 or (len(rng) and (rng[0] < 0 or rng[-1] >= n)):
             raise ClipError(f"{self.spec.root}: frames {rng} outside the clip's 0..{n - 1}")
-        return self._iterate(rng)
+        return self._iterate(rng, prefetch)
 
     def _open_readers(self) -> dict[str, _VideoReader | _FolderReader]:
         readers: dict[str, _VideoReader | _FolderReader] = {}
@@ -552,27 +559,47 @@ class Clip:
         self._open.update(readers.values())
         return readers
 
-    def _iterate(self, rng: range) -> Iterator[FrameSet]:
+    def _read_set(self, readers: Mapping[str, _VideoReader | _FolderReader], k: int
+                  ) -> dict[str, np.ndarray] | CameraSpec | None:
+        """Every camera's image at clip frame ``k``; the camera whose stream ended; None if the
+        clip was closed. Raises ClipError for a bad frame."""
+        images = {}
+        with self._lock:
+            for name, reader in readers.items():
+                if reader not in self._open:  # the clip was closed
+                    return None
+                cam = self.spec.camera(name)
+                image = reader.read(k + cam.offset)
+                if image is None:
+                    return cam
+                images[name] = _checked(image, cam, k + cam.offset)
+        return images
+
+    def _iterate(self, rng: range, prefetch: bool) -> Iterator[FrameSet]:
         readers = self._open_readers()
+        pool = ThreadPoolExecutor(1, thread_name_prefix="mvtrack-read") \
+            if prefetch and readers and len(rng) > 1 else None
+        ahead: Future[dict[str, np.ndarray] | CameraSpec | None] | None = None
         try:
-            for k in rng:
-                images = {}
-                for name, reader in readers.items():
-                    if reader not in self._open:  # the clip was closed
-                        return
-                    cam = self.spec.camera(name)
-                    image = reader.read(k + cam.offset)
-                    if image is None:
-                        self._stream_ended(cam, k)
-                        return
-                    images[name] = _checked(image, cam, k + cam.offset)
+            for i, k in enumerate(rng):
+                got = ahead.result() if ahead is not None else self._read_set(readers, k)
+                ahead = None
+                if got is None or any(r not in self._open for r in readers.values()):
+                    return  # the clip was closed
+                if isinstance(got, CameraSpec):
+                    self._stream_ended(got, k)
+                    return
+                if pool is not None and i + 1 < len(rng):
+                    ahead = pool.submit(self._read_set, readers, rng[i + 1])
                 detections = {
                     c.name: self._detections[c.name].get(k, self._empty)
                     for c in self.spec.cameras
                     if c.kind == "detections"
                 }
-                yield FrameSet(k, images, detections)
+                yield FrameSet(k, got, detections)
         finally:
+            if pool is not None:
+                pool.shutdown(wait=True)  # no read runs while the readers close
             for reader in readers.values():
                 reader.close()
                 self._open.discard(reader)
@@ -587,9 +614,10 @@ class Clip:
 
     def close(self) -> None:
         """Release every open video (iterators still running then stop reading)."""
-        for reader in list(self._open):
-            reader.close()
-        self._open.clear()
+        with self._lock:  # not while a background read is running
+            for reader in list(self._open):
+                reader.close()
+            self._open.clear()
 
     def __enter__(self) -> Clip:
         return self
