@@ -202,6 +202,67 @@ def test_removed_object_is_a_ghost_and_is_absorbed() -> None:
     assert np.abs(state.background.astype(int) - ground.astype(int)).max() < 12
 
 
+def test_removed_object_ghost_fails_the_edge_test_even_when_it_moves() -> None:
+    """The vacated region's boundary has B's edges (the object), not the frame's."""
+    rng = np.random.default_rng(2)
+    ground = _ground(rng)
+    state = _train(_paste(ground, _person(rng), 70, 40), rng)
+    cfg = dataclasses.replace(CFG, min_mean_flow_px=0.0, min_changed_frac=0.0)  # all "move"
+    for t in range(4):
+        state, r = background_step(state, _noisy(ground, rng), cfg)
+        b = r.blobs
+        big = b.area_px > cfg.min_area_px
+        assert big.sum() == 1, f"frame {t}"
+        assert b.edge_frame[big][0] < 0.5 * b.edge_background[big][0]
+        assert not b.edge_ok[big][0] and not b.is_mvo[big][0]
+    off = dataclasses.replace(cfg, edge_ghost_ratio=0.0)  # without the edge test: an MVO
+    state = _train(_paste(ground, _person(rng), 70, 40), rng)
+    for _ in range(2):
+        state, r = background_step(state, _noisy(ground, rng), off)
+    assert r.blobs.is_mvo.sum() == 1 and np.isnan(r.blobs.edge_frame).all()
+
+
+@pytest.mark.parametrize("hold", [0, 5])
+def test_person_who_stops_is_held_for_a_bounded_time(hold: int) -> None:
+    rng = np.random.default_rng(3)
+    ground, person = _ground(rng), _person(rng)
+    cfg = dataclasses.replace(CFG, mvo_hold_frames=hold, fifo_spacing_frames=20)
+    state = _train(ground, rng, cfg=cfg)
+    mvo, held = [], []
+    for t in range(16):
+        x = 20 + 4 * min(t, 6)  # walks 6 frames, then stands at column 44
+        state, r = background_step(state, _noisy(_paste(ground, person, x, 50), rng), cfg)
+        mvo.append(bool(r.blobs.is_mvo.any()))
+        held.append(bool(r.blobs.held.any()))
+    assert all(mvo[1:7])  # walking
+    # standing: the motion tests fail once the flow gap (3 frames) holds no motion
+    still = [t for t in range(10, 16) if not held[t] and not mvo[t]]
+    if hold == 0:
+        assert not any(held) and still == list(range(10, 16))
+    else:
+        first = held.index(True)
+        assert 7 <= first <= 10 and held[first : first + hold] == [True] * hold
+        assert mvo[first : first + hold] == [True] * hold
+        assert not mvo[first + hold] and not held[first + hold]  # released after the bound
+
+
+def test_walkers_crossing_in_one_blob_move_by_frame_difference() -> None:
+    """Two people walking in opposite directions in one blob: their flow cancels, their
+    pixels change."""
+    rng = np.random.default_rng(4)
+    ground, a, b = _ground(rng), _person(rng), _person(rng)
+    state = _train(ground, rng)
+    for t in range(8):
+        frame = _paste(_paste(ground, a, 60 + 2 * t, 50), b, 74 - 2 * t, 50)
+        state, r = background_step(state, _noisy(frame, rng), CFG)
+    blobs = r.blobs
+    big = blobs.area_px > CFG.min_area_px
+    assert big.sum() == 1
+    assert blobs.mean_flow_px[big][0] < 1.0  # +2 and -2 px/frame cancel (mostly)
+    assert blobs.changed_frac[big][0] > 2 * CFG.min_changed_frac
+    assert blobs.moving_ok[big][0] and blobs.is_mvo[big][0]
+
+
 def test_darkened_same_hue_region_is_shadow_not_foreground() -> None:
     rng = np.random.default_rng(3)
     ground = _ground(rng)

@@ -77,8 +77,6 @@ class _Model:
     bgr: (H,W,3) or (H,W) uint8 B; h, s, v: (H,W) uint8 planes (h, s None for gray);
     ratio_lo, ratio_hi: (H,W) uint8, the I_V range with α ≤ I_V/B_V ≤ β (lo > hi where B_V = 0);
     colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat (both None for gray);
-    grad: (H,W) uint8, |∂V/∂x| + |∂V/∂y| of B (Sobel, saturating), or None when the edge test
-    is off.
     """
 
     bgr: np.ndarray
@@ -89,7 +87,6 @@ class _Model:
     ratio_hi: np.ndarray
     colour: np.ndarray | None
     hue_ok: np.ndarray | None
-    grad: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -133,8 +130,8 @@ class BlobTable:
                   (NaN: no previous frame)
     changed_frac: (K,) float64, share of its pixels whose V changed over the flow gap (NaN: no
                   previous frame)
-    edge_frame, edge_background: (K,) float64, mean |gradient of V| (0..255) of the frame and
-                  of B on the blob's boundary pixels (NaN: edge test off)
+    edge_frame, edge_background: (K,) float64, mean |gradient of V| (central differences,
+                  0..510) of the frame and of B on the blob's boundary pixels (NaN: test off)
     area_ok, strong_ok, flow_ok: (K,) bool, the thesis's three MVO tests (flow_ok is True
                   when NaN)
     moving_ok:    (K,) bool, flow_ok or changed_frac >= min_changed_frac
@@ -236,7 +233,6 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         colour = v > _u8_floor(cfg.colour_min_value)
         hue_ok = s > _u8_floor(cfg.hue_min_sat)
     lo_lut, hi_lut = _ratio_luts(cfg.shadow_alpha, cfg.shadow_beta)
-    grad = _readonly(_gradient(v)) if cfg.edge_ghost_ratio > 0 else None
     return _Model(
         bgr=bgr,
         h=h,
@@ -246,15 +242,20 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         ratio_hi=cv2.LUT(v, hi_lut),
         colour=colour,
         hue_ok=hue_ok,
-        grad=grad,
     )
 
 
-def _gradient(v: np.ndarray) -> np.ndarray:
-    """(H,W) uint8 |∂V/∂x| + |∂V/∂y| (3x3 Sobel / 4, saturating) of a (H,W) uint8 plane."""
-    gx = cv2.Sobel(v, cv2.CV_16S, 1, 0)
-    gy = cv2.Sobel(v, cv2.CV_16S, 0, 1)
-    return cv2.add(cv2.convertScaleAbs(gx, alpha=0.25), cv2.convertScaleAbs(gy, alpha=0.25))
+def _gradient_at(v: np.ndarray, index: np.ndarray) -> np.ndarray:
+    """|V(x+1) - V(x-1)| + |V(y+1) - V(y-1)| (central differences, one-sided at the frame's
+    border) of a (H,W) uint8 plane at flat pixel indices (P,) int64; (P,) int16 in 0..510."""
+    height, width = v.shape
+    flat = v.ravel()
+    row, col = np.divmod(index, width)
+    left, right = index - (col > 0), index + (col < width - 1)
+    up, down = index - width * (row > 0), index + width * (row < height - 1)
+    gx = np.abs(flat[right].astype(np.int16) - flat[left])
+    gy = np.abs(flat[down].astype(np.int16) - flat[up])
+    return gx + gy
 
 
 @lru_cache(maxsize=8)
@@ -402,18 +403,22 @@ def _blob_motion(
 
 
 def _blob_edges(
-    candidate: np.ndarray, blob_labels: np.ndarray, v: np.ndarray, model: _Model, k: int
+    candidate: np.ndarray,
+    blob_labels: np.ndarray,
+    v_pair: tuple[np.ndarray, np.ndarray],
+    k: int,
+    cfg: BackgroundConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Per blob (labels 1..K): mean frame and background gradient (0..255) on its boundary
+    """Per blob (labels 1..K): mean frame and background gradient (0..510) on its boundary
     (candidate pixels with a non-candidate 8-neighbour); NaN when the edge test is off."""
-    if model.grad is None:
+    if cfg.edge_ghost_ratio <= 0:
         return np.full(k, np.nan), np.full(k, np.nan)
     inner = cv2.erode(candidate.view(np.uint8), np.ones((3, 3), np.uint8)).view(bool)
     index = np.flatnonzero(candidate & ~inner)
     lab = blob_labels.ravel()[index]
     count = np.maximum(np.bincount(lab, minlength=k + 1)[1:], 1)
-    frame_grad = _gradient(v).ravel()[index]
-    bg_grad = model.grad.ravel()[index]
+    frame_grad = _gradient_at(v_pair[0], index)
+    bg_grad = _gradient_at(v_pair[1], index)
     frame = np.bincount(lab, weights=frame_grad, minlength=k + 1)[1:] / count
     background = np.bincount(lab, weights=bg_grad, minlength=k + 1)[1:] / count
     return frame, background
@@ -602,7 +607,10 @@ def _group_fragments(
     out[1:, cv2.CC_STAT_WIDTH] = hi_x[1:] - lo_x[1:]
     out[1:, cv2.CC_STAT_HEIGHT] = hi_y[1:] - lo_y[1:]
     out[1:, cv2.CC_STAT_AREA] = np.bincount(g, weights=stats[1:, 4], minlength=n_groups + 1)[1:]
-    return lut[comp_labels], out
+    labels = np.zeros_like(comp_labels)
+    index = np.flatnonzero(comp_labels)  # the few candidate pixels: cheaper than a full gather
+    labels.ravel()[index] = lut[comp_labels.ravel()[index]]
+    return labels, out
 
 
 def _candidates(dist8: np.ndarray, shadow: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
@@ -670,7 +678,7 @@ def background_step(
     evidence = _BlobEvidence(
         max8[1:],
         *_blob_motion(pixels, stats[1:, cv2.CC_STAT_AREA], frame.shape[1], motion),
-        *_blob_edges(candidate, blob_labels, planes[2], state.model, k),
+        *_blob_edges(candidate, blob_labels, (planes[2], state.model.v), k, cfg),
         _blob_hold_age(pixels, state.mvo_age, k),
     )
     blobs, age = _blob_table(stats, evidence, cfg)
