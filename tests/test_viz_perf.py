@@ -237,3 +237,12 @@ def test_read_ahead_yields_the_same_frames_and_errors_at_the_same_frame(
         indices, _, error = _read_all(broken, prefetch)
         assert indices == [0, 1, 2, 3, 4], prefetch
         assert isinstance(error, ClipError) and frame.name in str(error)
+
+
+def test_ground_map_keeps_only_runs_inside_its_extent() -> None:
+    from mvtrack.viz.sink import _inside_runs
+
+    pts = np.array([[0, 0], [1, 1], [500, 50], [2, 2], [3, 3], [4, 4], [-99, 0], [5, 5]], float)
+    runs = _inside_runs(pts, np.array([-1.0, -1.0]), np.array([10.0, 10.0]))
+    assert [r.tolist() for r in runs] == [[[0, 0], [1, 1]], [[2, 2], [3, 3], [4, 4]]]
+    assert _inside_runs(pts[2:3], np.zeros(2), np.ones(2)) == []

@@ -47,10 +47,14 @@ Per overlapping pair ``a-b`` (names in the clip's overlap order)::
     /pairs/{a}-{b}/costs            TextDocument: the matcher's cost matrix (symmetric transfer
                                     distance in body heights, A targets x B targets)
 
-Ground-plane map (reference camera's pixels, or metres with ``truth/ground.json``)::
+Ground-plane map (reference camera's pixels, or metres with ``truth/ground.json``), drawn within
+the reference camera's outline plus one outline size on every side (a poor learned homography
+would otherwise throw points hundreds of metres away and zoom the map out)::
 
     /ground/fov/{cam}               LineStrips2D: camera ``cam``'s frame outline on the ground
-    /ground/targets                 Points2D: every target's ground point, class id = meta
+                                    (the parts inside the map's extent)
+    /ground/targets                 Points2D: every target's ground point inside the extent,
+                                    class id = meta
     /ground/trails                  LineStrips2D: each live meta-target's recent ground track
     /ground/truth                   Points2D: true positions (metres, truth clips only)
 

@@ -59,6 +59,7 @@ APP_ID = "mvtrack"
 
 _TRAIL_FRAMES = 100  # ground-map trail length per meta-target, frames
 _FOOT_GATE_HEIGHTS = 0.5  # viewer metric: a foot matches truth within half the person's height
+_GROUND_MARGIN = 1.0  # ground map: drawn up to this many reference-outline sizes beyond it
 
 
 @dataclass(frozen=True)
@@ -185,6 +186,14 @@ def _apply(H: np.ndarray, pts: np.ndarray) -> np.ndarray:
     hom = np.c_[pts, np.ones(len(pts))] @ H.T
     keep = hom[:, 2] > 1e-9
     return hom[keep, :2] / hom[keep, 2:3]
+
+
+def _inside_runs(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.ndarray]:
+    """The runs (>= 2 points) of a (N,2) polyline that lie inside the box [lo, hi]."""
+    inside = np.all((pts >= lo) & (pts <= hi), axis=1)
+    cuts = np.flatnonzero(np.diff(inside.astype(np.int8))) + 1
+    return [run for run, ok in zip(np.split(pts, cuts), np.split(inside, cuts), strict=True)
+            if len(run) > 1 and ok[0]]
 
 
 def _outline(size: tuple[int, int], n: int = 24) -> np.ndarray:
@@ -441,6 +450,12 @@ class RerunSink:
             return
         to_ref = homographies_to_reference(ref, pairs)
         to_out = self._ground_from_ref
+        # the map's extent: the reference camera's outline and a margin; a poor learned H can
+        # throw another camera's outline hundreds of metres away and zoom everything else out
+        ref_outline = _apply(np.eye(3) if to_out is None else to_out,
+                             _outline(result.cameras[ref].targets.size))
+        lo, hi = ref_outline.min(axis=0), ref_outline.max(axis=0)
+        lo, hi = lo - _GROUND_MARGIN * (hi - lo), hi + _GROUND_MARGIN * (hi - lo)
         pts, ids = [], []
         for name, cam in result.cameras.items():
             H = to_ref.get(name)
@@ -449,15 +464,16 @@ class RerunSink:
             if to_out is not None:
                 H = to_out @ H
             size = cam.targets.size
-            outline = _apply(H, _outline(size))
-            if len(outline) > 1:
-                width = 0.5 if to_out is None else 0.03
-                self.rec.log(paths.ground_fov(name), rr.LineStrips2D(
-                    [self._g(outline)], radii=width, labels=[name]))
+            runs = _inside_runs(_apply(H, _outline(size)), lo, hi)
+            width = 0.5 if to_out is None else 0.03
+            self.rec.log(paths.ground_fov(name), rr.LineStrips2D(
+                [self._g(r) for r in runs], radii=width,
+                labels=[name] + [""] * (len(runs) - 1) if runs else []))
             feet = _apply(H, cam.targets.feet)
             if len(feet) == len(cam.targets):
-                pts.append(feet)
-                ids.append(result.metas[name])
+                near = np.all((feet >= lo) & (feet <= hi), axis=1)
+                pts.append(feet[near])
+                ids.append(result.metas[name][near])
         allpts = np.concatenate(pts) if pts else np.zeros((0, 2))
         allids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
         self._log_trails(allpts, allids, result)
