@@ -339,3 +339,12 @@ def test_box_labels_never_reused(seq, use_ids) -> None:
         ended |= prev - cur
         seen |= cur
         prev = cur
+
+
+def test_track_boxes_lives_in_boxtrack_and_stays_importable_from_blobtrack() -> None:
+    from mvtrack.stages import blobtrack, boxtrack
+
+    assert blobtrack.track_boxes is boxtrack.track_boxes
+    assert "track_boxes" in blobtrack.__all__
+    with pytest.raises(AttributeError, match="no_such_name"):
+        _ = blobtrack.no_such_name  # type: ignore[attr-defined]
