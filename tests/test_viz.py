@@ -260,6 +260,8 @@ def test_meta_colours_are_stable_distinct_and_readable() -> None:
     d = np.linalg.norm(cols[:, None] - cols[None], axis=2) + np.eye(30) * 1e9
     assert d.min() > 25.0  # no two of the first 30 metas look alike
     assert (cols.max(axis=1) >= 120).all()  # light enough for labels on a dark background
+    many = np.array([meta_color(m) for m in range(1, 200)], float) / 255.0
+    assert (many @ [0.2126, 0.7152, 0.0722] >= 0.25).all()  # no dark blue label text
 
 
 def test_metas_image_maps_labels_to_metas() -> None:

@@ -13,6 +13,7 @@ import numpy as np
 __all__ = ["MASK_COLORS", "camera_color", "meta_color", "meta_colors"]
 
 _GOLDEN = 0.618033988749895
+_MIN_LUMINANCE = 0.25  # meta colours at least this bright: dark blue label text was unreadable
 
 MASK_COLORS = {
     1: (255, 60, 60),  # MVO: red
@@ -28,9 +29,18 @@ def meta_color(meta: int) -> tuple[int, int, int]:
     if meta <= 0:
         return (128, 128, 128)
     hue = (meta * _GOLDEN) % 1.0
-    light = 0.62 if meta % 2 else 0.52  # light enough for label text on a dark background
+    light = 0.62 if meta % 2 else 0.52
     r, g, b = colorsys.hls_to_rgb(hue, light, 0.85)
+    while _luminance((r, g, b)) < _MIN_LUMINANCE and light < 0.8:  # blues and purples
+        light += 0.02  # lighter until label text reads on the viewer's dark label background
+        r, g, b = colorsys.hls_to_rgb(hue, light, 0.85)
     return (round(255 * r), round(255 * g), round(255 * b))
+
+
+def _luminance(rgb: tuple[float, float, float]) -> float:
+    """Relative luminance (Rec. 709 weights) of an RGB colour in [0, 1]."""
+    r, g, b = rgb
+    return 0.2126 * r + 0.7152 * g + 0.0722 * b
 
 
 def meta_colors(metas: np.ndarray) -> np.ndarray:
