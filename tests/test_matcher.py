@@ -199,3 +199,38 @@ def test_inputs_not_mutated() -> None:
     snapshot = dict(state.pending)
     match_step(state, MatchInputs(a, b, H_OK, (), 3), CFG)
     assert np.array_equal(a.feet, feet) and dict(state.pending) == snapshot
+
+
+def test_link_kept_on_noisy_feet_below_keep_threshold_broken_above() -> None:
+    a = targets([1], [(10, 100)])
+    good = targets([5], [(110, 100)])
+    noisy = targets([5], [(110, 135)])  # 35 px off, 50 px heights: d = 0.7 (match 0.4, keep 1.0)
+    far = targets([5], [(110, 160)])  # d = 1.2 > keep
+    n = CFG.break_after_frames
+    _, results = run([(a, good)] + [(a, noisy)] * (2 * n), assoc={0: [(1, 5)]})
+    assert results[-1].pairs() == ((1, 5),)
+    assert results[-1].confirmed[0][2] == pytest.approx(0.7)
+    _, results = run([(a, good)] + [(a, far)] * n, assoc={0: [(1, 5)]})
+    assert [x[:2] for x in results[-1].broken] == [(1, 5)] and results[-1].pairs() == ()
+
+
+def test_noisy_pair_is_not_created_above_match_threshold() -> None:
+    a = targets([1], [(10, 100)])
+    noisy = targets([5], [(110, 135)])  # d = 0.7: keeps a link, never makes one
+    _, results = run([(a, noisy)] * (3 * CFG.confirm_frames))
+    assert results[-1].pairs() == () and results[-1].pending == ()
+
+
+def test_ambiguous_create_waits_until_one_candidate_is_clearly_nearer() -> None:
+    a = targets([1], [(10, 100)])
+    tie = targets([5, 6], [(110, 105), (110, 95)])  # both 5 px off: d = 0.1 each
+    clear = targets([5, 6], [(110, 102), (110, 130)])  # 6 now 0.6 off: 0.5 above 5's 0.04
+    _, results = run([(a, tie)] * (2 * CFG.confirm_frames))
+    assert results[-1].pairs() == () and results[-1].pending == ()
+    _, results = run([(a, clear)] * CFG.confirm_frames)
+    assert results[-1].pairs() == ((1, 5),)
+
+
+def test_keep_threshold_below_match_threshold_is_rejected() -> None:
+    with pytest.raises(ValueError, match="keep_threshold_heights"):
+        MatcherConfig(match_threshold_heights=0.5, keep_threshold_heights=0.4)

@@ -138,3 +138,32 @@ def test_properties_random_link_graphs(raw: list, frames: int) -> None:
         seen_ids |= ids
         if k:
             assert r.created == ()  # same input, same labels
+
+
+def at(label: int, x: float, y: float = 50.0, height: float = 30.0) -> CameraTargets:
+    return CameraTargets(np.array([label], np.int64), np.array([[x, y]]), np.array([height]),
+                         np.array([[x - 5, y - height, 10.0, height]]), (100, 100))
+
+
+def test_target_found_again_near_where_its_meta_was_lost_resumes_it() -> None:
+    state, r = step(meta_init(), {"A": at(1, 40)}, [], 0)
+    state, r = step(state, {"A": cam()}, [], 1)  # the front end lost it: no target anywhere
+    state, r = step(state, {"A": at(2, 60)}, [], 3)  # 20 px = 0.67 heights away: resumed
+    assert meta_of(r, "A", 2, {"A": at(2, 60)}) == 1
+    assert r.resumed == ((1, "A", 2),) and r.created == ()
+
+
+def test_far_new_target_or_zero_gate_gets_a_new_meta() -> None:
+    for where, cfg in ((80.0, CFG), (60.0, replace(CFG, reattach_heights=0.0))):
+        state, _ = step(meta_init(), {"A": at(1, 40)}, [], 0, cfg)
+        state, r = step(state, {"A": at(2, where)}, [], 1, cfg)  # 40 px = 1.33 heights
+        assert r.resumed == () and r.created == (2,)
+
+
+def test_meta_still_seen_elsewhere_is_not_resumed_by_position() -> None:
+    cams0 = {"A": at(1, 40), "B": at(7, 40)}
+    state, _ = step(meta_init(), cams0, [edge(("A", 1), ("B", 7))], 0)
+    cams1 = {"A": at(2, 45), "B": at(7, 42)}  # A's target re-born; B still holds meta 1
+    state, r = step(state, cams1, [], 1)
+    assert meta_of(r, "B", 7, cams1) == 1
+    assert meta_of(r, "A", 2, cams1) != 1 and r.resumed == ()

@@ -7,14 +7,17 @@ target's feet into A. The pair distance is the symmetric transfer distance in bo
 
 so one threshold works at every depth. With it the pair's one-to-one links are
 
-- confirmed while d < ``match_threshold_heights``, broken after ``break_after_frames``
-  consecutive inconsistent frames (refine: wrong FOV associations, identity swaps);
+- confirmed while d < ``keep_threshold_heights`` (looser than the gate that makes links: a
+  front end that loses the legs puts one person's two feet up to a body height apart), broken
+  after ``break_after_frames`` consecutive inconsistent frames (refine: wrong FOV associations,
+  identity swaps);
 - re-attached at once when a young target is consistent with a target whose partner was lost
   within ``reattach_window_frames`` (occlusion recovery, splits);
 - created by a gated Hungarian assignment of the free targets, once a pair stays assigned for
-  ``confirm_frames`` frames (in-scene entrances, no FOV event needed);
+  ``confirm_frames`` frames (in-scene entrances, no FOV event needed); re-attach and create take
+  only unambiguous pairs (every rival at least ``create_margin_heights`` further);
 - added from FOV associations (the only source with ``method == "fov"`` or before H exists;
-  with H, an association it contradicts is rejected).
+  with H, an association it contradicts (d >= ``keep_threshold_heights``) is rejected).
 
 Targets projected inside the other frame without a partner are "expected but unseen".
 
@@ -114,7 +117,7 @@ class MatchResult:
     a_labels, b_labels: (NA,), (NB,) int64, row and column labels of ``cost``
     cost:          (NA, NB) float64 symmetric transfer distance in body heights ((0, 0) without H)
     proj_a_in_b:   (NA, 2) float64 A feet projected into B px;  proj_b_in_a: (NB, 2) alike
-    confirmed:     (a, b, d) links consistent this frame
+    confirmed:     (a, b, d) links consistent this frame (d < keep threshold)
     inconsistent:  (a, b, d, streak) links inconsistent this frame but not yet broken
     broken:        (a, b, d) links broken this frame (refine)
     fov_added:     (a, b) links made from FOV associations this frame
@@ -180,15 +183,23 @@ def transfer_costs(
 
 
 def _gated_assignment(cost: np.ndarray, rows: Sequence[int], cols: Sequence[int],
-                      gate: float) -> list[tuple[int, int, float]]:
-    """Minimum-cost one-to-one assignment of ``rows`` x ``cols`` of ``cost``, each pair < gate."""
+                      gate: float, margin: float = 0.0) -> list[tuple[int, int, float]]:
+    """Minimum-cost one-to-one assignment of ``rows`` x ``cols`` of ``cost``, each pair < gate
+    and at least ``margin`` below every other entry of its row and column (unambiguous)."""
     if not len(rows) or not len(cols):
         return []
     sub = cost[np.ix_(list(rows), list(cols))]
     gated = np.where(sub < gate, sub, _BIG)
     r, c = linear_sum_assignment(gated)
-    return [(rows[i], cols[j], float(sub[i, j])) for i, j in zip(r, c, strict=True)
-            if gated[i, j] < _BIG]
+    out = []
+    for i, j in zip(r, c, strict=True):
+        if gated[i, j] >= _BIG:
+            continue
+        rivals = np.r_[np.delete(sub[i, :], j), np.delete(sub[:, j], i)]
+        if rivals.size and rivals.min() < sub[i, j] + margin:
+            continue
+        out.append((rows[i], cols[j], float(sub[i, j])))
+    return out
 
 
 @dataclass
@@ -259,7 +270,7 @@ def _refine(f: _Frame, cost: np.ndarray, cfg: MatcherConfig) -> None:
     kept = []
     for link in f.links:
         d = float(cost[f.index_a[link.a], f.index_b[link.b]])
-        if d < cfg.match_threshold_heights:
+        if d < cfg.keep_threshold_heights:
             kept.append(replace(link, confirmations=link.confirmations + 1, bad_streak=0))
             f.confirmed.append((link.a, link.b, d))
         elif link.bad_streak + 1 >= cfg.break_after_frames:
@@ -286,7 +297,8 @@ def _reattach(f: _Frame, cost: np.ndarray, state: MatchState, lost: tuple[dict, 
         else:
             rows = [i for i in free_a if frame - born_a[labels_a[i]] <= max_age]
             cols = [j for j in free_b if labels_b[j] in lost[1]]
-        for i, j, d in _gated_assignment(cost, rows, cols, cfg.match_threshold_heights):
+        for i, j, d in _gated_assignment(cost, rows, cols, cfg.match_threshold_heights,
+                                         cfg.create_margin_heights):
             a, b = labels_a[i], labels_b[j]
             f.links.append(Link(a, b, "reattach", frame, confirmations=1))
             f.reattached.append((a, b, d))
@@ -299,7 +311,8 @@ def _create(f: _Frame, cost: np.ndarray, state: MatchState, cfg: MatcherConfig,
     labels_b = {i: label for label, i in f.index_b.items()}
     pending: dict[Pair, int] = {}
     shown = []
-    for i, j, d in _gated_assignment(cost, f.free(0), f.free(1), cfg.match_threshold_heights):
+    for i, j, d in _gated_assignment(cost, f.free(0), f.free(1), cfg.match_threshold_heights,
+                                     cfg.create_margin_heights):
         pair = (labels_a[i], labels_b[j])
         count = state.pending.get(pair, 0) + 1
         if count >= cfg.confirm_frames:
@@ -340,7 +353,7 @@ def match_step(state: MatchState, inputs: MatchInputs,
     else:
         cost, a_in_b, b_in_a = np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((0, 2))
     _add_fov(f, inputs.associations, frame,
-             (cost, cfg.match_threshold_heights) if use_h else None)
+             (cost, cfg.keep_threshold_heights) if use_h else None)
     if use_h:
         _refine(f, cost, cfg)
         _reattach(f, cost, state, lost, cfg, frame)

@@ -8,7 +8,10 @@ one camera into one meta-target is rejected and reported as a :class:`Conflict`.
 
 Labels are stable: each component inherits the previous meta of most of its members (ties: the
 member that has carried it longest; merging components keep the oldest meta); components with
-no previous meta get a new one. Every present target always has a meta. A meta-target ends
+no previous meta get a new one, unless one of their targets is within ``reattach_heights`` of
+where a live meta with no target anywhere was last seen in that camera: then it resumes that
+meta (a person the front end lost and found again while no other camera saw it). Every present
+target always has a meta. A meta-target ends
 ``meta_timeout_frames`` after its last target was seen; ids are never reused.
 
     state = meta_init()
@@ -77,6 +80,7 @@ class MetaState:
     last_seen:  live meta -> last frame one of its targets was present
     last_feet:  live meta -> camera -> last feet [x, y] px seen there (for cueing)
     next_meta:  the next new meta id (ids start at 1, never reused)
+    last_height: live meta -> camera -> height px of its target there when last seen
     """
 
     of_target: Mapping[Node, int] = field(default_factory=dict)
@@ -84,6 +88,7 @@ class MetaState:
     last_seen: Mapping[int, int] = field(default_factory=dict)
     last_feet: Mapping[int, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
     next_meta: int = 1
+    last_height: Mapping[int, Mapping[str, float]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -103,6 +108,8 @@ class MetaResult:
     members:    meta -> its present targets, sorted
     accepted:   links that joined targets, strongest first;  conflicts: links rejected
     created:    metas new this frame;  merged: (absorbed meta, surviving meta)
+    resumed:    (meta, camera, label): a new unlinked target took back a target-less live meta
+                by its last position in that camera (``reattach_heights``)
     split:      (meta, new meta) when a meta-target came apart and one part got a new label
     ended:      metas timed out this frame;  live: metas alive after this frame (some may
                 have no target now: not seen anywhere for less than the timeout)
@@ -116,6 +123,7 @@ class MetaResult:
     conflicts: tuple[Conflict, ...]
     created: tuple[int, ...]
     merged: tuple[tuple[int, int], ...]
+    resumed: tuple[tuple[int, str, int], ...]
     split: tuple[tuple[int, int], ...]
     ended: tuple[int, ...]
     live: tuple[int, ...]
@@ -193,9 +201,43 @@ def _claims(state: MetaState, groups: list[tuple[Node, ...]],
     return out
 
 
-def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int) -> tuple[
-        list[int], int, list[int], list[tuple[int, int]], list[tuple[int, int]]]:
-    """A meta per group: kept from the previous frame where possible, else new."""
+def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], taken: set[int],
+            where: Mapping[Node, tuple[float, float, float]],
+            cfg: MetaConfig) -> list[tuple[int, str, int]]:
+    """Groups of new targets only take back live metas left with no target at all, when a
+    member's feet are within ``reattach_heights`` of that meta's last feet in its camera
+    (nearest first, one-to-one). Fills ``ids`` and ``taken``; returns (meta, camera, label)."""
+    if cfg.reattach_heights <= 0:
+        return []
+    free = [m for m in state.last_seen if m not in taken]
+    options = []
+    for g, members in enumerate(groups):
+        if ids[g] or any(n in state.of_target for n in members):
+            continue
+        for n in members:
+            x, y, h = where[n]
+            for m in free:
+                last = state.last_feet.get(m, {}).get(n[0])
+                h_last = state.last_height.get(m, {}).get(n[0])
+                if last is None or h_last is None:
+                    continue
+                d = float(np.hypot(x - last[0], y - last[1])) / max(h, h_last, 1.0)
+                if d <= cfg.reattach_heights:
+                    options.append((d, g, m, n))
+    resumed = []
+    for _, g, m, n in sorted(options):
+        if not ids[g] and m not in taken:
+            ids[g] = m
+            taken.add(m)
+            resumed.append((m, n[0], n[1]))
+    return resumed
+
+
+def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int,
+          where: Mapping[Node, tuple[float, float, float]], cfg: MetaConfig) -> tuple[
+        list[int], int, list[int], list[tuple[int, int]], list[tuple[int, int]],
+        list[tuple[int, str, int]]]:
+    """A meta per group: kept from the previous frame where possible, else resumed, else new."""
     claims = sorted(_claims(state, groups, frame), key=lambda c: (c[2], c[3], c[1]))
     ids = [0] * len(groups)
     taken: set[int] = set()
@@ -203,6 +245,7 @@ def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int) -> tuple
         if not ids[g] and meta not in taken:
             ids[g] = meta
             taken.add(meta)
+    resumed = _resume(state, groups, ids, taken, where, cfg)
     next_meta, created = state.next_meta, []
     for g in range(len(groups)):
         if not ids[g]:
@@ -213,12 +256,13 @@ def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int) -> tuple
     for g, meta, _, _ in claims:  # an old meta not kept by this group: split off or absorbed
         if ids[g] != meta:
             (split if meta in taken else merged).add((meta, ids[g]))
-    return ids, next_meta, created, sorted(merged), sorted(split)
+    return ids, next_meta, created, sorted(merged), sorted(split), resumed
 
 
-def _feet_of(cameras: Mapping[str, CameraTargets]) -> dict[Node, tuple[float, float]]:
+def _feet_of(cameras: Mapping[str, CameraTargets]) -> dict[Node, tuple[float, float, float]]:
+    """(camera, label) -> (feet x, feet y, height) px of every present target."""
     return {
-        (name, int(label)): (float(t.feet[i, 0]), float(t.feet[i, 1]))
+        (name, int(label)): (float(t.feet[i, 0]), float(t.feet[i, 1]), float(t.heights_px[i]))
         for name, t in cameras.items()
         for i, label in enumerate(t.labels.tolist())
     }
@@ -230,26 +274,30 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     frame = inputs.frame
     feet = _feet_of(inputs.cameras)
     groups, accepted, conflicts = _link(list(feet), inputs.edges)
-    ids, next_meta, created, merged, split = _name(state, groups, frame)
+    ids, next_meta, created, merged, split, resumed = _name(state, groups, frame, feet, cfg)
     of_target = {n: ids[g] for g, members in enumerate(groups) for n in members}
     since = {n: state.since.get(n, frame) if state.of_target.get(n) == m else frame
              for n, m in of_target.items()}
     last_seen = {m: s for m, s in state.last_seen.items() if frame - s <= cfg.meta_timeout_frames}
     last_feet = {m: dict(state.last_feet.get(m, {})) for m in last_seen}
+    last_height = {m: dict(state.last_height.get(m, {})) for m in last_seen}
     for n, m in of_target.items():
         last_seen[m] = frame
-        last_feet.setdefault(m, {})[n[0]] = feet[n]
+        last_feet.setdefault(m, {})[n[0]] = feet[n][:2]
+        last_height.setdefault(m, {})[n[0]] = feet[n][2]
     absorbed = {m for m, _ in merged}
     for m in absorbed - set(ids):
         last_seen.pop(m, None)
         last_feet.pop(m, None)
+        last_height.pop(m, None)
     ended = sorted(set(state.last_seen) - set(last_seen) - absorbed)
     metas = {
         name: np.array([of_target[(name, int(label))] for label in t.labels.tolist()], np.int64)
         for name, t in inputs.cameras.items()
     }
     frozen_feet = {m: dict(v) for m, v in last_feet.items()}
-    new_state = MetaState(of_target, since, last_seen, frozen_feet, next_meta)
+    new_state = MetaState(of_target, since, last_seen, frozen_feet, next_meta,
+                          {m: dict(v) for m, v in last_height.items()})
     result = MetaResult(
         frame=frame,
         metas=metas,
@@ -258,6 +306,7 @@ def meta_step(state: MetaState, inputs: MetaInputs,
         conflicts=tuple(conflicts),
         created=tuple(created),
         merged=tuple(merged),
+        resumed=tuple(resumed),
         split=tuple(split),
         ended=tuple(ended),
         live=tuple(sorted(last_seen)),
