@@ -219,6 +219,25 @@ class TrackerConfig(_Checked):
     fragment_max_aspect: float = param(
         4.5, "fragments: largest height / width of the two boxes' union", 0.5
     )
+    # A group that enters already merged is one blob the merge division never saw apart: an
+    # unmerged blob wide enough for two people whose top silhouette (highest foreground row per
+    # column) has two or more heads is cut between the heads into new targets.
+    group_split: bool = param(True, "unmerged blobs with several heads are cut into people")
+    group_min_aspect: float = param(
+        0.45, "group split: least box width / height of a blob tested for several heads", 0.0, 10.0
+    )
+    group_head_prominence_frac: float = param(
+        0.12,
+        "group split: least dip of the top silhouette between two heads (fraction of blob height)",
+        0.0,
+        1.0,
+    )
+    group_person_width_frac: float = param(
+        0.25,
+        "group split: least distance between heads and least part width (fraction of blob height)",
+        0.01,
+        10.0,
+    )
 
 
 @dataclass(frozen=True)
@@ -403,6 +422,19 @@ class MatcherConfig(_Checked):
         0.4, "confirm/create/re-attach gate on the symmetric transfer distance (body heights)",
         0.0, 100.0,
     )
+    # A made link is kept on weaker evidence than a new one needs: a front end that loses the
+    # legs (feet at the knees) or merges a shadow puts same-person pairs at 0.5-1.2 body heights
+    # in a fifth of frames (generated scenes), while different people are rarely below 0.8.
+    keep_threshold_heights: float = param(
+        1.0, "refine: a link stays consistent while d is below this (body heights)", 0.0, 100.0
+    )
+    create_margin_heights: float = param(
+        0.2,
+        "create/re-attach: the pair's d must beat every rival of either target by this margin "
+        "(body heights): ambiguous pairs wait",
+        0.0,
+        100.0,
+    )
     confirm_frames: int = param(
         3, "create: consecutive consistent frames before a new pair link is made", 1, 10000
     )
@@ -418,6 +450,11 @@ class MatcherConfig(_Checked):
     )
 
     def _check(self) -> None:
+        if self.keep_threshold_heights < self.match_threshold_heights:
+            raise ParamsError(
+                f"keep_threshold_heights = {self.keep_threshold_heights} must be at least "
+                f"match_threshold_heights = {self.match_threshold_heights}"
+            )
         if self.method not in ("homography", "fov"):
             raise ParamsError(f"method = {self.method!r} must be 'homography' or 'fov'")
 
@@ -429,6 +466,14 @@ class MetaConfig(_Checked):
     meta_timeout_frames: int = param(
         25, "a meta-target ends when none of its targets was seen for this many frames",
         0, 100000,
+    )
+    reattach_heights: float = param(
+        1.0,
+        "a new target with no link takes a live meta that has no target anywhere, if that "
+        "meta's last feet in this camera are this close (body heights; 0 = off): a person the "
+        "front end lost and found again while no other camera sees it keeps its label",
+        0.0,
+        100.0,
     )
     cue_margin_px: float = param(
         4.0, "cueing: a projected ground point this far inside a frame is expected there",
