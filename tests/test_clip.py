@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from mvtrack.io import ClipError, Detections, open_clip, parse_frame_range, read_detections_csv
-from mvtrack.io import clip as clip_module
+from mvtrack.io import streams as streams_module
 
 # ---------------------------------------------------------------- input forms
 
@@ -468,7 +468,7 @@ def test_wrong_size_while_reading_names_file_and_frame(clip_builder, monkeypatch
     b = clip_builder
     b.frames("cam", 6)
     cv2.imwrite(str(b.root / "cam" / "000004.png"), b.encode(4, size=(160, 120)))
-    monkeypatch.setattr(clip_module, "_image_size", lambda path: None)
+    monkeypatch.setattr(streams_module, "_image_size", lambda path: None)
     clip = open_clip(b.root)
     with pytest.raises(ClipError, match=r"cam: frame 4 is 160x120, expected 320x240"):
         list(clip.frames())
@@ -479,4 +479,4 @@ def test_image_header_sizes(tmp_path: Path):
     for ext in (".png", ".jpg", ".bmp"):
         path = tmp_path / f"x{ext}"
         cv2.imwrite(str(path), image)
-        assert clip_module._image_size(path) == (53, 37), ext
+        assert streams_module._image_size(path) == (53, 37), ext

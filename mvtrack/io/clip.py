@@ -1,4 +1,4 @@
-"""Clip reading exactly per FORMATS.md: cameras, offsets, modality, overlaps, fps, frames.
+"""Opening a clip (FORMATS.md): its validated cameras and their synchronized frames.
 
     with open_clip("my_clip", cameras=["cam0", "cam1"]) as clip:
         for fs in clip.frames(parse_frame_range("100:400", clip.spec.frame_count)):
@@ -9,31 +9,20 @@
 names, sources, the first frame's size of every stream, every detections row) and raises a
 :class:`ClipError` naming the file (and line or key) and the problem. Streams of different lengths
 are not an error: the clip is their common range, and :attr:`ClipSpec.warnings` says so.
+:mod:`mvtrack.io.manifest` reads the declared cameras, :mod:`mvtrack.io.streams` probes and reads
+their frames; the decisions about each are documented there.
 
 Decisions beyond FORMATS.md (documented here, tested in tests/test_clip.py):
 
-- ``offset`` is the index in the stream of clip frame 0, so it must be >= 0: a camera that starts
-  later than the others is expressed by positive offsets on the others. Clip frame ``k`` of a
-  camera is its stream frame ``k + offset``.
-- The frames of a detections CSV are clip frame indices (FORMATS.md: every frame index is a clip
-  index), so a detections camera takes no ``offset`` (or ``offset = 0``).
 - The clip range is the frames where every video/frames camera has a frame. A detections camera
   has data in every frame (a frame without rows has no detections) and does not shorten the clip;
   rows past the clip's end are ignored with a warning. A clip of detections cameras only lasts
   until the last row of any camera.
-- A ``clip.toml`` without ``[[camera]]`` tables discovers the cameras as if it were absent (its
-  ``fps`` and ``[[overlap]]`` still apply). ``size`` may also be given for a video/frames camera;
-  the stream must then have that size.
-- Frame folders are ordered by file name, digit runs compared as numbers (``9.png`` before
-  ``10.png``; zero-padded names sort the same either way). Hidden files and files that are not
-  images are ignored; ``.jpg`` and ``.jpeg`` are one family, and families cannot be mixed.
-- Video frame counts come from the container header. A stream that ends earlier while reading
-  stops the iteration cleanly; :attr:`Clip.warnings` then says where (and it is logged).
-- Seeking to a range's start reads and discards frames (``grab``), which is exact for every codec
-  (``CAP_PROP_POS_FRAMES`` is not).
+- A stream that ends earlier than its header said while reading stops the iteration cleanly;
+  :attr:`Clip.warnings` then says where (and it is logged).
 - :meth:`Clip.frames` decodes the next frame set on a background thread while the caller works
-  on the current one (decoding releases the GIL); frames, errors and warnings arrive exactly
-  as without it (``prefetch=False``), each error at the frame set it belongs to.
+  on the current one; frames, errors and warnings arrive exactly as without it
+  (``prefetch=False``), each error at the frame set it belongs to.
 """
 
 from __future__ import annotations
@@ -41,20 +30,33 @@ from __future__ import annotations
 import logging
 import math
 import re
-import struct
 import threading
-import tomllib
 from collections.abc import Iterator, Mapping, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass, replace
-from itertools import combinations
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, BinaryIO, Literal
+from typing import Literal
 
 import cv2
 import numpy as np
 
 from mvtrack.io.detections import ClipError, Detections, read_detections_csv
+from mvtrack.io.manifest import (
+    RESERVED_NAMES,
+    VIDEO_EXTENSIONS,
+    Entry,
+    declared_cameras,
+    resolve_overlaps,
+    select_cameras,
+)
+from mvtrack.io.streams import (
+    IMAGE_EXTENSIONS,
+    FolderReader,
+    Reader,
+    VideoReader,
+    probe_frames,
+    probe_video,
+    read_ahead,
+)
 
 __all__ = [
     "DEFAULT_FPS",
@@ -72,15 +74,7 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-VIDEO_EXTENSIONS = (".mp4", ".avi", ".mkv", ".mov")
-IMAGE_EXTENSIONS = (".png", ".jpg", ".jpeg", ".bmp")
-RESERVED_NAMES = ("truth", "results", "detections")
 DEFAULT_FPS = 25.0
-_FAMILY = {".png": "png", ".jpg": "jpeg", ".jpeg": "jpeg", ".bmp": "bmp"}
-_TOP_KEYS = ("fps", "camera", "overlap")
-_CAMERA_KEYS = ("name", "source", "detections", "offset", "modality", "size")
-_OVERLAP_KEYS = ("cameras",)
-_BAD_NAME_CHARS = set(',"/\\\n\r\t')
 
 
 @dataclass(frozen=True)
@@ -155,315 +149,7 @@ class FrameSet:
 
 
 # --------------------------------------------------------------------------------------------
-# Manifest and discovery
-
-
-@dataclass(frozen=True)
-class _Entry:
-    """A camera as declared, before its source is probed."""
-
-    name: str
-    path: Path
-    kind: Literal["video", "frames", "detections"]
-    offset: int = 0
-    modality: Literal["rgb", "gray"] = "rgb"
-    size: tuple[int, int] | None = None
-    where: str = ""  # for messages: "clip.toml [[camera]] 'cam0'" or the discovered path
-
-
-def _check_name(name: Any, where: str) -> str:
-    if not isinstance(name, str) or not name.strip() or name != name.strip():
-        raise ClipError(f"{where}: camera name must be a non-empty string, got {name!r}")
-    if _BAD_NAME_CHARS & set(name):
-        raise ClipError(
-            f'{where}: camera name {name!r} may not contain , " / \\ tabs or line breaks'
-        )
-    return name
-
-
-def _int(value: Any, where: str, key: str, lo: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
-        raise ClipError(f"{where}: {key} must be an integer >= {lo}, got {value!r}")
-    return value
-
-
-def _size(value: Any, where: str) -> tuple[int, int]:
-    if not isinstance(value, list) or len(value) != 2:
-        raise ClipError(f"{where}: size must be [width, height], got {value!r}")
-    w, h = (_int(v, where, "size", 1) for v in value)
-    return (w, h)
-
-
-def _kind_of(path: Path) -> Literal["video", "frames"]:
-    return "frames" if path.is_dir() else "video"
-
-
-def _camera_entry(table: Any, root: Path, where: str) -> _Entry:
-    if not isinstance(table, dict):
-        raise ClipError(f"{where}: expected a [[camera]] table")
-    for key in table:
-        if key not in _CAMERA_KEYS:
-            raise ClipError(f"{where}: unknown key {key!r} (known: {', '.join(_CAMERA_KEYS)})")
-    name = _check_name(table.get("name"), where)
-    where = f"{where} {name!r}"
-    if ("source" in table) == ("detections" in table):
-        raise ClipError(f"{where}: give exactly one of `source` or `detections`")
-    rel = table.get("source", table.get("detections"))
-    if not isinstance(rel, str) or not rel:
-        raise ClipError(f"{where}: source/detections must be a path string, got {rel!r}")
-    path = root / rel
-    if not path.exists():
-        raise ClipError(f"{where}: {path} does not exist")
-    modality = table.get("modality", "rgb")
-    if modality not in ("rgb", "gray"):
-        raise ClipError(f"{where}: modality must be 'rgb' or 'gray', got {modality!r}")
-    offset = _int(table.get("offset", 0), where, "offset", 0)
-    size = _size(table["size"], where) if "size" in table else None
-    if "detections" in table:
-        if size is None:
-            raise ClipError(f"{where}: `size = [width, height]` is required with `detections`")
-        if offset != 0:
-            raise ClipError(
-                f"{where}: a detections camera takes no offset (its CSV frames are clip frames)"
-            )
-        if not path.is_file():
-            raise ClipError(f"{where}: {path} is not a file")
-        return _Entry(name, path, "detections", 0, modality, size, where)
-    return _Entry(name, path, _kind_of(path), offset, modality, size, where)
-
-
-def _overlap(table: Any, where: str) -> tuple[str, str]:
-    if not isinstance(table, dict):
-        raise ClipError(f"{where}: expected an [[overlap]] table")
-    for key in table:
-        if key not in _OVERLAP_KEYS:
-            raise ClipError(f"{where}: unknown key {key!r} (known: cameras)")
-    pair = table.get("cameras")
-    if (
-        not isinstance(pair, list)
-        or len(pair) != 2
-        or not all(isinstance(n, str) for n in pair)
-        or pair[0] == pair[1]
-    ):
-        raise ClipError(f"{where}: cameras must be two different camera names, got {pair!r}")
-    return (pair[0], pair[1])
-
-
-def _tables(data: dict[str, Any], key: str, path: Path) -> list[Any]:
-    value = data.get(key, [])
-    if not isinstance(value, list):
-        raise ClipError(f"{path}: `{key}` must be an array of tables ([[{key}]])")
-    return value
-
-
-def _read_manifest(
-    path: Path,
-) -> tuple[float | None, list[_Entry], list[tuple[str, str]] | None]:
-    """Parse clip.toml: (fps or None, declared cameras, declared overlaps or None)."""
-    try:
-        data = tomllib.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError) as exc:
-        raise ClipError(f"{path}: cannot read: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ClipError(f"{path}: not valid TOML: {exc}") from None
-    for key in data:
-        if key not in _TOP_KEYS:
-            raise ClipError(f"{path}: unknown key {key!r} (known: {', '.join(_TOP_KEYS)})")
-    fps = data.get("fps")
-    if fps is not None and (
-        isinstance(fps, bool) or not isinstance(fps, int | float) or not 0 < fps < math.inf
-    ):
-        raise ClipError(f"{path}: fps must be a positive number, got {fps!r}")
-    entries = [
-        _camera_entry(t, path.parent, f"{path} [[camera]] #{i + 1}")
-        for i, t in enumerate(_tables(data, "camera", path))
-    ]
-    overlap_tables = _tables(data, "overlap", path)
-    overlaps = [_overlap(t, f"{path} [[overlap]] #{i + 1}") for i, t in enumerate(overlap_tables)]
-    return (None if fps is None else float(fps)), entries, (overlaps if "overlap" in data else None)
-
-
-def _discover(root: Path) -> list[_Entry]:
-    """Cameras of a clip without a manifest: top-level videos and image folders, by name."""
-    entries = []
-    for path in sorted(root.iterdir(), key=lambda p: p.name):
-        if path.name.startswith(".") or path.name in RESERVED_NAMES:
-            continue
-        if path.is_dir() or (path.is_file() and path.suffix.lower() in VIDEO_EXTENSIONS):
-            name = _check_name(path.stem if path.is_file() else path.name, str(path))
-            entries.append(_Entry(name, path, _kind_of(path), where=str(path)))
-    if not entries:
-        raise ClipError(
-            f"{root}: no cameras: no clip.toml, no video ({' '.join(VIDEO_EXTENSIONS)}) "
-            "and no frame folder at the top level"
-        )
-    return entries
-
-
-# --------------------------------------------------------------------------------------------
-# Probing the sources
-
-
-def _natural_key(path: Path) -> tuple[list[Any], str]:
-    parts = re.split(r"(\d+)", path.name)
-    return [int(p) if i % 2 else p for i, p in enumerate(parts)], path.name
-
-
-def _list_frames(folder: Path) -> list[Path]:
-    """The image files of a frame folder in frame order; ClipError if none or mixed types."""
-    try:
-        files = [
-            p
-            for p in folder.iterdir()
-            if p.suffix.lower() in IMAGE_EXTENSIONS and not p.name.startswith(".") and p.is_file()
-        ]
-    except OSError as exc:
-        raise ClipError(f"{folder}: cannot list the frame folder: {exc.strerror}") from None
-    if not files:
-        raise ClipError(f"{folder}: empty frame folder: no {' '.join(IMAGE_EXTENSIONS)} images")
-    families = sorted({_FAMILY[p.suffix.lower()] for p in files})
-    if len(families) > 1:
-        raise ClipError(
-            f"{folder}: frame folder mixes image types ({', '.join(families)}); use one type"
-        )
-    return sorted(files, key=_natural_key)
-
-
-def _jpeg_size(f: BinaryIO) -> tuple[int, int] | None:
-    sof = {0xC0, 0xC1, 0xC2, 0xC3, 0xC5, 0xC6, 0xC7, 0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF}
-    f.seek(2)
-    while True:
-        if f.read(1) != b"\xff":
-            return None
-        b = f.read(1)
-        while b == b"\xff":
-            b = f.read(1)
-        if not b:
-            return None
-        if b[0] == 0x01 or 0xD0 <= b[0] <= 0xD8:  # markers without a length
-            continue
-        seg = f.read(2)
-        if len(seg) < 2:
-            return None
-        if b[0] in sof:
-            data = f.read(5)
-            return None if len(data) < 5 else struct.unpack(">HH", data[1:5])[::-1]
-        f.seek(int.from_bytes(seg, "big") - 2, 1)
-
-
-def _image_size(path: Path) -> tuple[int, int] | None:
-    """(width, height) from a PNG/JPEG/BMP header without decoding; None if not parsed."""
-    try:
-        with open(path, "rb") as f:
-            head = f.read(26)
-            if head[:8] == b"\x89PNG\r\n\x1a\n" and head[12:16] == b"IHDR":
-                w, h = struct.unpack(">II", head[16:24])
-                return (w, h)
-            if head[:2] == b"BM" and len(head) == 26:
-                if struct.unpack("<I", head[14:18])[0] == 12:  # OS/2 header
-                    w, h = struct.unpack("<HH", head[18:22])
-                    return (w, h)
-                w, h = struct.unpack("<ii", head[18:26])
-                return (w, abs(h))
-            if head[:2] == b"\xff\xd8":
-                return _jpeg_size(f)
-    except OSError:
-        return None
-    return None
-
-
-def _imread(path: Path, modality: str) -> np.ndarray:
-    flag = cv2.IMREAD_GRAYSCALE if modality == "gray" else cv2.IMREAD_COLOR
-    image = cv2.imread(str(path), flag | cv2.IMREAD_IGNORE_ORIENTATION)
-    if image is None:
-        raise ClipError(f"{path}: cannot be read as an image")
-    return image
-
-
-def _probe_frames(entry: _Entry) -> tuple[CameraSpec, list[Path]]:
-    files = _list_frames(entry.path)
-    h, w = _imread(files[0], entry.modality).shape[:2]
-    for i, path in enumerate(files[1:], start=1):
-        size = _image_size(path)
-        if size is not None and size != (w, h):
-            raise ClipError(
-                f"{path}: frame {i} is {size[0]}x{size[1]}, expected {w}x{h} like {files[0].name}"
-            )
-    spec = CameraSpec(entry.name, "frames", entry.path, entry.offset, entry.modality, (w, h), 0)
-    return replace(spec, length=len(files)), files
-
-
-def _probe_video(entry: _Entry) -> tuple[CameraSpec, float]:
-    """The video's camera spec and its own frame rate (nan if unknown)."""
-    if not entry.path.is_file():
-        raise ClipError(f"{entry.where}: {entry.path} is not a video file")
-    cap = cv2.VideoCapture(str(entry.path))
-    try:
-        ok, frame = cap.read() if cap.isOpened() else (False, None)
-        if not ok or frame is None:
-            raise ClipError(f"{entry.path}: cannot be read as a video (no frame decodes)")
-        length = int(cap.get(cv2.CAP_PROP_FRAME_COUNT) or 0)
-        if length <= 0:  # the container does not say: count
-            length = 1
-            while cap.grab():
-                length += 1
-        fps = float(cap.get(cv2.CAP_PROP_FPS) or math.nan)
-    finally:
-        cap.release()
-    h, w = frame.shape[:2]
-    spec = CameraSpec(entry.name, "video", entry.path, entry.offset, entry.modality, (w, h), length)
-    return spec, fps
-
-
-# --------------------------------------------------------------------------------------------
-# Streams
-
-
-class _VideoReader:
-    """Sequential frames of one video; wraps the cv2.VideoCapture, the only state it holds."""
-
-    def __init__(self, path: Path) -> None:
-        self._path = path
-        self._cap = self._open()
-        self._next = 0  # stream index of the next frame the capture returns
-
-    def _open(self) -> cv2.VideoCapture:
-        cap = cv2.VideoCapture(str(self._path))
-        if not cap.isOpened():
-            raise ClipError(f"{self._path}: cannot be read as a video")
-        return cap
-
-    def read(self, index: int) -> np.ndarray | None:
-        """Stream frame ``index``, or None past the stream's end. Going back reopens the video."""
-        if index < self._next:
-            self._cap.release()
-            self._cap, self._next = self._open(), 0
-        while self._next < index:  # read and discard: exact for every codec
-            if not self._cap.grab():
-                return None
-            self._next += 1
-        ok, frame = self._cap.read()
-        self._next += 1
-        return frame if ok else None
-
-    def close(self) -> None:
-        self._cap.release()
-
-
-class _FolderReader:
-    """Frames of one frame folder, by index."""
-
-    def __init__(self, files: Sequence[Path], modality: str) -> None:
-        self._files = files
-        self._modality = modality
-
-    def read(self, index: int) -> np.ndarray | None:
-        if index >= len(self._files):
-            return None
-        return _imread(self._files[index], self._modality)
-
-    def close(self) -> None:
-        pass
+# The clip range
 
 
 def _display(cam: CameraSpec, root: Path) -> str:
@@ -521,7 +207,7 @@ class Clip:
         self._files = files
         self._detections = detections
         self._late: list[str] = []
-        self._open: set[_VideoReader | _FolderReader] = set()
+        self._open: set[Reader] = set()
         self._lock = threading.Lock()  # held while a frame set is read and while closing
         self._empty = Detections.empty()
 
@@ -549,18 +235,19 @@ class Clip:
             raise ClipError(f"{self.spec.root}: frames {rng} outside the clip's 0..{n - 1}")
         return self._iterate(rng, prefetch)
 
-    def _open_readers(self) -> dict[str, _VideoReader | _FolderReader]:
-        readers: dict[str, _VideoReader | _FolderReader] = {}
+    def _open_readers(self) -> dict[str, Reader]:
+        readers: dict[str, Reader] = {}
         for cam in self.spec.cameras:
             if cam.kind == "video":
-                readers[cam.name] = _VideoReader(cam.source)
+                readers[cam.name] = VideoReader(cam.source)
             elif cam.kind == "frames":
-                readers[cam.name] = _FolderReader(self._files[cam.name], cam.modality)
+                readers[cam.name] = FolderReader(self._files[cam.name], cam.modality)
         self._open.update(readers.values())
         return readers
 
-    def _read_set(self, readers: Mapping[str, _VideoReader | _FolderReader], k: int
-                  ) -> dict[str, np.ndarray] | CameraSpec | None:
+    def _read_set(
+        self, readers: Mapping[str, Reader], k: int
+    ) -> dict[str, np.ndarray] | CameraSpec | None:
         """Every camera's image at clip frame ``k``; the camera whose stream ended; None if the
         clip was closed. Raises ClipError for a bad frame."""
         images = {}
@@ -577,20 +264,21 @@ class Clip:
 
     def _iterate(self, rng: range, prefetch: bool) -> Iterator[FrameSet]:
         readers = self._open_readers()
-        pool = ThreadPoolExecutor(1, thread_name_prefix="mvtrack-read") \
-            if prefetch and readers and len(rng) > 1 else None
-        ahead: Future[dict[str, np.ndarray] | CameraSpec | None] | None = None
+
+        def read(k: int) -> dict[str, np.ndarray] | CameraSpec | None:
+            return self._read_set(readers, k)
+
+        def more(got: dict[str, np.ndarray] | CameraSpec | None) -> bool:
+            return isinstance(got, dict) and all(r in self._open for r in readers.values())
+
+        sets = read_ahead(read, rng, prefetch and bool(readers), more)
         try:
-            for i, k in enumerate(rng):
-                got = ahead.result() if ahead is not None else self._read_set(readers, k)
-                ahead = None
+            for k, got in sets:
                 if got is None or any(r not in self._open for r in readers.values()):
                     return  # the clip was closed
                 if isinstance(got, CameraSpec):
                     self._stream_ended(got, k)
                     return
-                if pool is not None and i + 1 < len(rng):
-                    ahead = pool.submit(self._read_set, readers, rng[i + 1])
                 detections = {
                     c.name: self._detections[c.name].get(k, self._empty)
                     for c in self.spec.cameras
@@ -598,8 +286,7 @@ class Clip:
                 }
                 yield FrameSet(k, got, detections)
         finally:
-            if pool is not None:
-                pool.shutdown(wait=True)  # no read runs while the readers close
+            sets.close()  # waits for a background read: none runs while the readers close
             for reader in readers.values():
                 reader.close()
                 self._open.discard(reader)
@@ -649,25 +336,7 @@ def _clip_root(path: Path | str) -> Path:
     return root
 
 
-def _select(entries: list[_Entry], cameras: Sequence[str] | None, root: Path) -> list[_Entry]:
-    names = [e.name for e in entries]
-    for name in names:
-        if names.count(name) > 1:
-            where = " and ".join(e.where for e in entries if e.name == name)
-            raise ClipError(f"{root}: camera name {name!r} is used twice ({where})")
-    if cameras is None:
-        return entries
-    if not cameras:
-        raise ClipError(f"{root}: no camera selected")
-    for name in cameras:
-        if name not in names:
-            raise ClipError(f"{root}: no camera {name!r} (cameras: {', '.join(names)})")
-    return [e for e in entries if e.name in cameras]
-
-
-def _probe(
-    entry: _Entry,
-) -> tuple[CameraSpec, float, list[Path], dict[int, Detections] | None]:
+def _probe(entry: Entry) -> tuple[CameraSpec, float, list[Path], dict[int, Detections] | None]:
     """Probe one declared camera: (spec, own fps or nan, frame files, detections)."""
     if entry.kind == "detections":
         dets = read_detections_csv(entry.path)
@@ -678,36 +347,18 @@ def _probe(
         )
         return spec, math.nan, [], dets
     if entry.kind == "frames":
-        spec, files = _probe_frames(entry)
-        fps = math.nan
+        info = probe_frames(entry.path, entry.modality)
     else:
-        spec, fps = _probe_video(entry)
-        files = []
-    if entry.size is not None and entry.size != spec.size:
+        info = probe_video(entry.path, entry.where)
+    if entry.size is not None and entry.size != info.size:
         raise ClipError(
-            f"{entry.where}: {entry.path} has frames of {spec.size[0]}x{spec.size[1]}, "
+            f"{entry.where}: {entry.path} has frames of {info.size[0]}x{info.size[1]}, "
             f"but size = [{entry.size[0]}, {entry.size[1]}]"
         )
-    return spec, fps, files, None
-
-
-def _overlaps(
-    declared: list[tuple[str, str]] | None, entries: list[_Entry], chosen: list[str], where: Path
-) -> tuple[tuple[str, str], ...]:
-    if declared is None:
-        return tuple(combinations(chosen, 2))
-    names = {e.name for e in entries}
-    out: list[tuple[str, str]] = []
-    for pair in declared:
-        for name in pair:
-            if name not in names:
-                raise ClipError(
-                    f"{where}: [[overlap]] names unknown camera {name!r} "
-                    f"(cameras: {', '.join(e.name for e in entries)})"
-                )
-        if set(pair) <= set(chosen) and not any(set(pair) == set(p) for p in out):
-            out.append(pair)
-    return tuple(out)
+    spec = CameraSpec(
+        entry.name, entry.kind, entry.path, entry.offset, entry.modality, info.size, info.length
+    )
+    return spec, info.fps, list(info.files), None
 
 
 def _late_rows(cams: Sequence[CameraSpec], n: int, root: Path) -> list[str]:
@@ -735,11 +386,8 @@ def open_clip(path: Path | str, cameras: Sequence[str] | None = None) -> Clip:
             overlap, a bad detections row, no common frame range...
     """
     root = _clip_root(path)
-    manifest = root / "clip.toml"
-    fps, entries, declared = _read_manifest(manifest) if manifest.is_file() else (None, [], None)
-    if not entries:
-        entries = _discover(root)
-    chosen = _select(entries, cameras, root)
+    fps, entries, declared = declared_cameras(root)
+    chosen = select_cameras(entries, cameras, root)
     specs, files, detections = [], {}, {}
     for entry in chosen:
         cam, own_fps, files[entry.name], dets = _probe(entry)
@@ -748,7 +396,7 @@ def open_clip(path: Path | str, cameras: Sequence[str] | None = None) -> Clip:
             detections[entry.name] = dets
         if fps is None and math.isfinite(own_fps) and own_fps > 0:
             fps = own_fps
-    overlaps = _overlaps(declared, entries, [e.name for e in chosen], manifest)
+    overlaps = resolve_overlaps(declared, entries, [e.name for e in chosen], root / "clip.toml")
     n, warnings = _common_range(specs, root)
     if n <= 0:
         raise ClipError(f"{root}: no frames: every detections CSV is empty and there is no video")
