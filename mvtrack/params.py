@@ -223,12 +223,22 @@ class TrackerConfig(_Checked):
     # unmerged blob wide enough for two people whose top silhouette (highest foreground row per
     # column) has two or more heads is cut between the heads into new targets.
     group_split: bool = param(True, "unmerged blobs with several heads are cut into people")
+    group_min_height_px: int = param(
+        24, "group split: least blob height tested (smaller silhouettes are too coarse)", 2
+    )
     group_min_aspect: float = param(
         0.45, "group split: least box width / height of a blob tested for several heads", 0.0, 10.0
     )
     group_head_prominence_frac: float = param(
         0.12,
         "group split: least dip of the top silhouette between two heads (fraction of blob height)",
+        0.0,
+        1.0,
+    )
+    group_min_part_height_frac: float = param(
+        0.8,
+        "group split: least height of every part (fraction of blob height; a raised arm or a "
+        "tilted body's shoulder is lower than a person)",
         0.0,
         1.0,
     )

@@ -11,7 +11,13 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.blobtrack import TrackerState, track_boxes, track_masks, tracker_init
+from mvtrack.stages.blobtrack import (
+    TrackerState,
+    group_cuts,
+    track_boxes,
+    track_masks,
+    tracker_init,
+)
 
 CFG = TrackerConfig()
 H, W = 120, 200
@@ -348,3 +354,96 @@ def test_track_boxes_lives_in_boxtrack_and_stays_importable_from_blobtrack() -> 
     assert "track_boxes" in blobtrack.__all__
     with pytest.raises(AttributeError, match="no_such_name"):
         _ = blobtrack.no_such_name  # type: ignore[attr-defined]
+
+
+# --------------------------------------------------------------------------- groups (rule 0)
+
+
+def person(mask: np.ndarray, x: int, y: int, w: int = 18, h: int = 60) -> None:
+    """Draw an upright person (head h/6 tall and w/2 wide on a w-wide body) at (x, y)."""
+    mask[y : y + h // 6, x + w // 4 : x + w - w // 4] = True
+    mask[y + h // 6 : y + h, x : x + w] = True
+
+
+def group(*xs: int, shape: tuple[int, int] = (64, 60), dy: int = 2) -> np.ndarray:
+    mask = np.zeros(shape, bool)
+    for k, x in enumerate(xs):
+        person(mask, x, dy * (k % 2))
+    return mask
+
+
+@pytest.mark.parametrize(
+    ("mask", "cuts"),
+    [
+        (group(0, 18, shape=(62, 36)), [18]),  # two touching people: cut between them
+        (group(0, 22, shape=(62, 40)), [20]),  # a gap of 4 columns (18..21): cut in its middle
+        (group(0, 18, 36, shape=(62, 54)), [18, 36]),  # three heads, two cuts
+        (group(0, shape=(60, 18)), []),  # one person
+        (group(0, shape=(60, 40)), []),  # one person in a wide box: one head
+        (group(0, 18, shape=(62, 36))[::3, ::3], []),  # the same pair 21 px high: too coarse
+        (np.ones((40, 40), bool), []),  # a flat top has no head
+        (np.zeros((0, 0), bool), []),
+    ],
+)
+def test_group_cuts_table(mask: np.ndarray, cuts: list[int]) -> None:
+    assert group_cuts(mask, CFG).tolist() == cuts
+
+
+def test_group_cuts_off() -> None:
+    assert group_cuts(group(0, 18, shape=(62, 36)), replace(CFG, group_split=False)).size == 0
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    gap=st.integers(0, 12),
+    h=st.integers(50, 90),
+    dy=st.integers(0, 2),
+)
+def test_group_cuts_fall_between_the_heads(gap: int, h: int, dy: int) -> None:
+    """Two people side by side, heads h/6 high, one up to 2 px lower: one cut between them."""
+    w = int(np.ceil(0.27 * h))  # people a little wider than group_person_width_frac
+    mask = np.zeros((h + dy, 2 * w + gap), bool)
+    person(mask, 0, 0, w, h)
+    person(mask, w + gap, dy, w, h)
+    cuts = group_cuts(mask, CFG)
+    assert len(cuts) == 1
+    assert w // 2 < cuts[0] < w + gap + w // 2  # between the two head centres
+
+
+def frame_with(mask: np.ndarray, x: int, y: int, shape: tuple[int, int] = (H, W)) -> np.ndarray:
+    out = np.zeros(shape, np.int32)
+    out[y : y + mask.shape[0], x : x + mask.shape[1]] = mask
+    return out
+
+
+def test_a_group_that_enters_merged_becomes_two_targets_and_stays_two() -> None:
+    pair = group(0, 18, shape=(62, 36))
+    frames = [frame_with(pair, 20 + 2 * t, 30) for t in range(8)]
+    _, res = run(frames)
+    assert res[0].births == (1, 2) and res[0].groups == ((1, (1, 2)),)
+    np.testing.assert_allclose(res[0].boxes_xywh[:, [0, 2]], [[19.5, 18.0], [37.5, 18.0]])
+    for r in res[1:]:  # one blob, divided between the two by the merge rule
+        assert r.labels.tolist() == [1, 2] and r.merges == ((1, (1, 2)),) and r.groups == ()
+        assert r.areas_px.min() > 0.3 * r.areas_px.sum()  # each keeps a good share
+        assert r.boxes_xywh[0, 0] < r.boxes_xywh[1, 0]  # and its side
+    off = replace(CFG, group_split=False)
+    state = tracker_init()
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, off)
+        assert r.labels.tolist() == [1]
+
+
+def test_a_tracked_person_who_becomes_a_group_keeps_the_part_he_overlapped() -> None:
+    one = np.zeros((62, 36), bool)
+    person(one, 18, 2)
+    frames = [frame_with(one, 20, 30), frame_with(group(0, 18, shape=(62, 36)), 20, 30)]
+    _, res = run(frames)
+    assert res[1].splits == ((1, (2,)),) and res[1].births == ()
+    assert res[1].groups == ((1, (2, 1)),)  # left to right: the newcomer, then label 1
+
+
+def test_a_group_cut_by_the_frame_edge_is_not_divided() -> None:
+    pair = group(0, 18, shape=(62, 36))
+    _, res = run([frame_with(pair, 120, 0), frame_with(pair, 0, 55)])
+    assert [r.labels.tolist() for r in res] == [[1], [2]]
+    assert all(r.groups == () for r in res)

@@ -47,11 +47,14 @@ is one unbroken run of frames everywhere in mvtrack; the multi-camera stage re-a
 
 from __future__ import annotations
 
+import itertools
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 import cv2
 import numpy as np
+from scipy.ndimage import uniform_filter1d
+from scipy.signal import find_peaks
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
@@ -66,12 +69,14 @@ __all__ = [
     "TargetTrack",
     "TrackResult",
     "TrackerState",
+    "group_cuts",
     "track_boxes",
     "track_masks",
     "tracker_init",
 ]
 
 _HALF_PX = 0.5  # pixel centre to pixel edge (FORMATS.md pixel convention)
+_NO_CUTS = np.zeros(0, np.int64)
 
 
 @dataclass(frozen=True)
@@ -179,6 +184,8 @@ class TrackResult:
     merge_divisions:  the evidence of each merge, same order as ``merges``
     reunions:         (kept label, (absorbed labels...)) per blob that merged stacked fragment
                       targets of one person (masks only); the absorbed labels are retired
+    groups:           (blob id, (labels left to right...)) per unmerged blob cut into people
+                      by :func:`group_cuts` (masks only)
     """
 
     labels: np.ndarray
@@ -196,6 +203,7 @@ class TrackResult:
     merges: tuple[tuple[int, tuple[int, ...]], ...] = ()
     merge_divisions: tuple[MergeDivision, ...] = ()
     reunions: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    groups: tuple[tuple[int, tuple[int, ...]], ...] = ()
 
     def index_of(self, label: int) -> int | None:
         """Row of ``label`` in this frame, or None if absent."""
@@ -242,13 +250,20 @@ def _associate(overlap: np.ndarray, linked: np.ndarray, sizes: np.ndarray) -> _P
 
 
 def _events(
-    plan: _Plan, row_labels: np.ndarray, new_labels: dict[int, int]
+    plan: _Plan,
+    row_labels: np.ndarray,
+    new_labels: dict[int, int],
+    extra: list[tuple[int, int]] | None = None,
 ) -> tuple[tuple[int, ...], tuple[tuple[int, tuple[int, ...]], ...]]:
-    """Births and splits from a plan; new_labels maps blob index -> the label it was given."""
+    """Births and splits from a plan; new_labels maps blob index -> the label it was given,
+    extra lists further (blob index, label) pairs (group parts: children of the blob's
+    inheritor, if any)."""
     births: list[int] = []
     kids: dict[int, list[int]] = {}
-    for b, label in sorted(new_labels.items()):
-        p = plan.split_parent[b]
+    pairs = sorted([*new_labels.items(), *(extra or [])], key=lambda bl: bl[1])
+    for b, label in pairs:
+        heirs = plan.inheritors[b]
+        p = heirs[0] if heirs else plan.split_parent[b]
         if p < 0:
             births.append(label)
         else:
@@ -450,6 +465,8 @@ class _Frame:
     merges: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     divisions: list[MergeDivision] = field(default_factory=list)
     reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
+    extra_labels: list[tuple[int, int]] = field(default_factory=list)  # (blob index, label)
+    groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
 
 
 def _stacked(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
@@ -525,6 +542,44 @@ def _parent_fragment(
             pair = np.stack([_blob_box(window), _blob_box(other)])
             return c if bool(_stacked(pair, cfg)[0, 1]) else -1
     return -1
+
+
+def group_cuts(blob: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    """Columns where an unmerged blob holding several people side by side is cut (rule 0).
+
+    blob: (h, w) bool, one blob's mask in its bounding box. The top silhouette (per column, the
+    blob height above the highest foreground row), smoothed over a head width, must have two or
+    more peaks at least ``group_person_width_frac * h`` apart (parts that wide and at least
+    ``group_min_part_height_frac * h`` high) with dips of at least
+    ``group_head_prominence_frac * h`` between them; the blob must be at least
+    ``group_min_aspect`` times as wide as high and ``group_min_height_px`` high. Each cut is
+    half-way between two heads. Returns (k,) int64 sorted cut columns (a part is
+    ``[cut_i, cut_{i+1})``), empty when the blob is one person (or ``group_split`` is off).
+    """
+    h, w = blob.shape
+    if not cfg.group_split or w < cfg.group_min_aspect * h or h < cfg.group_min_height_px:
+        return np.zeros(0, np.int64)
+    top = np.where(blob.any(axis=0), h - np.argmax(blob, axis=0), 0).astype(np.float64)
+    person_px = cfg.group_person_width_frac * h
+    smooth = uniform_filter1d(top, max(int(person_px / 2), 1), mode="constant")
+    peaks, props = find_peaks(
+        np.r_[0.0, smooth, 0.0],
+        prominence=cfg.group_head_prominence_frac * h,
+        distance=max(person_px, 1.0),
+        plateau_size=1,
+    )
+    if len(peaks) < 2:
+        return np.zeros(0, np.int64)
+    heads = (props["left_edges"] + props["right_edges"]) / 2.0 - 1.0  # plateau centres
+    cuts = (np.floor((heads[:-1] + heads[1:]) / 2.0) + 1).astype(np.int64)
+    edges = np.r_[0, cuts, w]
+    for a, z in itertools.pairwise(edges):
+        rows = blob[:, a:z].any(axis=1)
+        part_h = np.flatnonzero(rows)
+        tall = len(part_h) and part_h[-1] - part_h[0] + 1 >= cfg.group_min_part_height_frac * h
+        if z - a < person_px or not tall:
+            return np.zeros(0, np.int64)
+    return cuts
 
 
 def _mask_overlap(
@@ -698,6 +753,12 @@ def track_masks(
             _merge_blob(work, int(blob_id), grown, cur[grown] == blob_id, tracks, ctx)
             continue
         whole = _parent_fragment(b, plan, slices, blob_ids, cfg) if not heirs else -1
+        crop = cur[window] == blob_id
+        cuts = group_cuts(crop, cfg) if whole < 0 and _inside(window, cur.shape) else _NO_CUTS
+        if len(cuts):
+            prev = None if state.label_image is None else state.label_image[window]
+            _split_group(work, b, int(blob_id), window, _column_parts(crop, cuts), prev)
+            continue
         if heirs:
             label = int(rows[heirs[0]])
         elif whole >= 0:
@@ -705,10 +766,57 @@ def track_masks(
         else:
             label, work.next_label = work.next_label, work.next_label + 1
             work.new_labels[b] = label
-        work.label_image[window][cur[window] == blob_id] = label
+        work.label_image[window][crop] = label
         if whole < 0:
             work.blob_of[label] = int(blob_id)
     return _finish_masks(state, work, ctx)
+
+
+def _inside(window: tuple[slice, slice], shape: tuple[int, ...]) -> bool:
+    """Whether a blob's bounding slices keep off the frame border (a person cut by the frame
+    edge has a misleading top silhouette)."""
+    ys, xs = window
+    return ys.start > 0 and xs.start > 0 and ys.stop < shape[0] and xs.stop < shape[1]
+
+
+def _split_group(
+    work: _Frame,
+    b: int,
+    blob_id: int,
+    window: tuple[slice, slice],
+    parts: list[np.ndarray],
+    prev: np.ndarray | None,
+) -> None:
+    """Label the parts (masks in ``window``, left to right) of a group blob: an inheriting
+    target keeps the part it shares most pixels with in ``prev`` (last frame's label image in
+    ``window``, or None); every other part is a new target (a split child of the inheritor,
+    else a birth)."""
+    heirs = work.plan.inheritors[b]
+    keep = -1
+    if heirs and prev is not None:
+        mine = prev == work.rows[heirs[0]]
+        keep = int(np.argmax([(mine & part).sum() for part in parts]))
+    labels = []
+    for k, part in enumerate(parts):
+        if k == keep:
+            label = int(work.rows[heirs[0]])
+        else:
+            label, work.next_label = work.next_label, work.next_label + 1
+            work.extra_labels.append((b, label))
+        work.label_image[window][part] = label
+        work.blob_of[label] = blob_id
+        labels.append(label)
+    work.groups.append((blob_id, tuple(labels)))
+
+
+def _column_parts(crop: np.ndarray, cuts: np.ndarray) -> list[np.ndarray]:
+    """(h, w) bool masks of ``crop`` between successive cut columns, left to right."""
+    parts = []
+    for a, z in itertools.pairwise(np.r_[0, cuts, crop.shape[1]]):
+        part = np.zeros_like(crop)
+        part[:, a:z] = crop[:, a:z]
+        parts.append(part)
+    return parts
 
 
 def _finish_masks(
@@ -733,7 +841,7 @@ def _finish_masks(
                 merged=True,
             )
         tracks.append(fresh)
-    births, splits = _events(work.plan, rows, work.new_labels)
+    births, splits = _events(work.plan, rows, work.new_labels, work.extra_labels)
     present = set(labels.tolist())
     result = TrackResult(
         labels=labels,
@@ -751,6 +859,7 @@ def _finish_masks(
         merges=tuple(work.merges),
         merge_divisions=tuple(work.divisions),
         reunions=tuple(work.reunions),
+        groups=tuple(work.groups),
     )
     new_state = TrackerState(
         label_image=work.label_image.copy(), targets=tuple(tracks), next_label=work.next_label
