@@ -19,6 +19,7 @@ from mvtrack.stages.background import (
     BackgroundResult,
     BackgroundState,
     background_step,
+    min_area_at,
     stacked_boxes,
     train_background,
 )
@@ -488,3 +489,31 @@ def test_generated_pair_masks_and_shadows(tmp_path: Path) -> None:
     assert s["shadow_discrimination"] >= 0.82  # person pixels not called shadow
     assert hits / n_true >= 0.9  # people touching the frame border are not counted
     assert hits / n_pred >= 0.87
+
+
+@pytest.mark.parametrize(
+    ("shape", "ref", "expected"),
+    [
+        ((240, 320), 277.0, 100.0),  # the reference size (sqrt(W*H) = 277.1)
+        ((120, 160, 3), 277.0, 100.0),  # never below min_area_px
+        ((480, 640, 3), 277.0, 100.0 * 554.3 / 277.0),  # twice the size: twice T_area
+        ((576, 768), 277.0, 100.0 * 665.1 / 277.0),  # PETS
+        ((576, 768), 0.0, 100.0),  # off: absolute
+    ],
+)
+def test_min_area_grows_with_the_frame_size(
+    shape: tuple[int, ...], ref: float, expected: float
+) -> None:
+    cfg = dataclasses.replace(CFG, min_area_px=100, min_area_ref_size_px=ref)
+    assert min_area_at(shape, cfg) == pytest.approx(expected, rel=1e-3)
+
+
+def test_blob_table_records_the_min_area_it_used() -> None:
+    rng = np.random.default_rng(5)
+    ground = _ground(rng)
+    state = _train(ground, rng)
+    cfg = dataclasses.replace(CFG, min_area_ref_size_px=0.5 * np.sqrt(H * W))
+    _, r = background_step(state, _noisy(_paste(ground, _person(rng), 70, 40), rng), cfg)
+    assert r.blobs.min_area_px == pytest.approx(2 * cfg.min_area_px)
+    assert np.array_equal(r.blobs.area_ok, r.blobs.area_px > 2 * cfg.min_area_px)
+    assert r.blobs.area_ok.any()

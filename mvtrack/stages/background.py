@@ -63,6 +63,7 @@ __all__ = [
     "BackgroundState",
     "BlobTable",
     "background_step",
+    "min_area_at",
     "stacked_boxes",
     "train_background",
 ]
@@ -141,6 +142,7 @@ class BlobTable:
     is_mvo:       (K,) bool, area_ok & strong_ok & edge_ok & (moving_ok | held)
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
     box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
+    min_area_px:  float, the T_area this frame size used (:func:`min_area_at`)
     """
 
     label: np.ndarray
@@ -159,6 +161,7 @@ class BlobTable:
     is_mvo: np.ndarray
     mvo_label: np.ndarray
     box_xywh: np.ndarray
+    min_area_px: float = 0.0
 
     def __len__(self) -> int:
         return len(self.label)
@@ -460,13 +463,22 @@ class _BlobEvidence:
     hold_age: np.ndarray
 
 
+def min_area_at(shape: tuple[int, ...], cfg: BackgroundConfig) -> float:
+    """T_area in pixels for frames of ``shape`` (H, W, ...): ``min_area_px``, grown in
+    proportion to sqrt(H * W) above ``min_area_ref_size_px`` (never below ``min_area_px``)."""
+    if cfg.min_area_ref_size_px <= 0:
+        return float(cfg.min_area_px)
+    size = math.sqrt(float(shape[0]) * float(shape[1]))
+    return cfg.min_area_px * max(1.0, size / cfg.min_area_ref_size_px)
+
+
 def _blob_table(
-    stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig
+    stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig, min_area_px: float
 ) -> tuple[BlobTable, np.ndarray]:
     """The blob table and each blob's new MVO age (K,) int64 (0 for ghosts)."""
     k = stats.shape[0] - 1
     area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
-    area_ok = area > cfg.min_area_px
+    area_ok = area > min_area_px
     strong_ok = ev.max8 > _u8_floor(cfg.t_high)
     flow_ok = np.isnan(ev.mean_flow) | (ev.mean_flow > cfg.min_mean_flow_px)
     changed_ok = (cfg.min_changed_frac > 0) & (ev.changed_frac >= cfg.min_changed_frac)
@@ -498,6 +510,7 @@ def _blob_table(
         is_mvo=is_mvo,
         mvo_label=mvo_label,
         box_xywh=box,
+        min_area_px=min_area_px,
     )
     return table, age
 
@@ -681,7 +694,7 @@ def background_step(
         *_blob_edges(candidate, blob_labels, (planes[2], state.model.v), k, cfg),
         _blob_hold_age(pixels, state.mvo_age, k),
     )
-    blobs, age = _blob_table(stats, evidence, cfg)
+    blobs, age = _blob_table(stats, evidence, cfg, min_area_at(candidate.shape, cfg))
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     mvo_age = np.zeros(candidate.shape, np.uint16)
