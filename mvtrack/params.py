@@ -367,17 +367,17 @@ class MarkerConfig(_Checked):
         0, 100,
     )
     comotion_min_support: int = param(
-        5, "bootstrap: inlier candidates each supporting target pair needs", 1, 100000
+        3, "bootstrap: inlier candidates each supporting target pair needs", 1, 100000
     )
     comotion_min_frac: float = param(
-        0.7, "bootstrap: fraction of a supporting pair's candidates that must be inliers",
+        0.6, "bootstrap: fraction of a supporting pair's candidates that must be inliers",
         0.0, 1.0,
     )
     comotion_threshold_px: float = param(
         4.0, "bootstrap: inlier symmetric transfer error (px), at least", 0.01, 1000.0
     )
     comotion_threshold_heights: float = param(
-        0.2, "bootstrap: inlier error may reach this fraction of the pair's mean height", 0.0, 10.0
+        0.3, "bootstrap: inlier error may reach this fraction of the pair's mean height", 0.0, 10.0
     )
     comotion_iterations: int = param(
         1500, "bootstrap: RANSAC samples (two candidates of two target pairs) per search", 1,
@@ -388,6 +388,19 @@ class MarkerConfig(_Checked):
     )
     comotion_pool_size: int = param(
         1500, "bootstrap: candidates kept (newest)", 4, 1000000
+    )
+    comotion_confirm_pairs: int = param(
+        1, "bootstrap: a hypothesis is accepted only when this many target pairs follow it again "
+        "in the candidates pooled after it was found (held-out check; 0 = accept at once)",
+        0, 100,
+    )
+    comotion_confirm_support: int = param(
+        3, "bootstrap: held-out check: inlier candidates each confirming target pair needs",
+        1, 100000,
+    )
+    comotion_confirm_frames: int = param(
+        100, "bootstrap: held-out check: a hypothesis not confirmed within this many frames is "
+        "dropped", 1, 1000000,
     )
 
 

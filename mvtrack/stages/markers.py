@@ -29,6 +29,7 @@ __all__ = [
     "MarkerResult",
     "MarkerState",
     "candidates_add",
+    "comotion_confirm",
     "comotion_search",
     "marker_groups",
     "marker_points",
@@ -247,12 +248,14 @@ class Comotion:
     """A homography hypothesis supported by several target pairs moving together.
 
     H_b_from_a: (3, 3) fitted to the supported pairs' candidates;  links: supported
-    (A label, B label) pairs;  markers: their inlier candidates as markers
+    (A label, B label) pairs;  markers: their inlier candidates as markers;
+    since: newest pool frame it has been checked against (held-out candidates come later)
     """
 
     H_b_from_a: np.ndarray
     links: tuple[tuple[int, int], ...]
     markers: tuple[Marker, ...]
+    since: int = -1
 
 
 def candidates_add(
@@ -304,6 +307,43 @@ def _two_link_sample(
     return np.r_[rng.choice(rows_of[i], 2, replace=False), rng.choice(rows_of[j], 2, replace=False)]
 
 
+def _support(
+    pool: Candidates, H: np.ndarray, cfg: MarkerConfig,
+    errors: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+    rows: np.ndarray | None = None,
+    min_support: int | None = None,
+) -> tuple[list[tuple[int, int]], np.ndarray]:
+    """(chosen one-to-one supporting label pairs, (P,) bool inlier rows of those pairs) of
+    ``H`` over the pool's ``rows`` ((P,) bool, default all); a pair needs ``min_support``
+    inliers (default ``cfg.comotion_min_support``) and mostly inliers."""
+    min_support = cfg.comotion_min_support if min_support is None else min_support
+    rows = np.ones(len(pool), bool) if rows is None else rows
+    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    n_all = np.bincount(inverse, rows, len(pairs))
+    inlier = (errors(H, pool.x_a, pool.x_b) < pool.gates_px(cfg)) & rows
+    n_in = np.bincount(inverse, inlier, len(pairs))
+    ok = (n_in >= min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+    if ok.sum() < 1:
+        return [], inlier & False
+    chosen = _one_to_one(pairs, n_in, ok)
+    keep = np.isin(inverse, [k for k in range(len(pairs))
+                             if (int(pairs[k, 0]), int(pairs[k, 1])) in chosen])
+    return chosen, inlier & keep
+
+
+def _as_comotion(pool: Candidates, H: np.ndarray, chosen: list[tuple[int, int]],
+                 rows: np.ndarray, since: int) -> Comotion:
+    markers = tuple(
+        Marker(int(f), int(la), int(lb), _pt(xa), _pt(xb), float(h[0]), float(h[1]))
+        for f, (la, lb), xa, xb, h in zip(
+            pool.frame[rows], pool.labels[rows], pool.x_a[rows], pool.x_b[rows],
+            pool.heights[rows], strict=True,
+        )
+    )
+    return Comotion(H, tuple(sorted(chosen)), markers, since)
+
+
 def comotion_search(
     pool: Candidates,
     cfg: MarkerConfig,
@@ -316,7 +356,7 @@ def comotion_search(
     inliers; a candidate is an inlier within :meth:`Candidates.gates_px`). Samples are two
     candidates of each of two target pairs. ``fit(pts_a, pts_b)`` returns H or None
     (degenerate); ``errors(H, pts_a, pts_b)`` the per-point transfer error in px. None when no
-    hypothesis is supported.
+    hypothesis is supported. The hypothesis's ``since`` is the pool's newest frame.
     """
     if len(pool) < 4:
         return None
@@ -325,18 +365,6 @@ def comotion_search(
     n_all = np.bincount(inverse, None, len(pairs))
     rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
     eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
-    gates = pool.gates_px(cfg)
-
-    def support(H: np.ndarray) -> tuple[list[tuple[int, int]], np.ndarray]:
-        inlier = errors(H, pool.x_a, pool.x_b) < gates
-        n_in = np.bincount(inverse, inlier, len(pairs))
-        ok = (n_in >= cfg.comotion_min_support) & (n_in >= cfg.comotion_min_frac * n_all)
-        if ok.sum() < cfg.comotion_min_pairs:
-            return [], inlier
-        chosen = _one_to_one(pairs, n_in, ok)
-        keep = np.isin(inverse, [k for k in range(len(pairs))
-                                 if (int(pairs[k, 0]), int(pairs[k, 1])) in chosen])
-        return chosen, inlier & keep
 
     best: tuple[int, np.ndarray] | None = None
     for _ in range(cfg.comotion_iterations):
@@ -344,7 +372,7 @@ def comotion_search(
         H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
         if H is None:
             continue
-        chosen, rows = support(H)
+        chosen, rows = _support(pool, H, cfg, errors)
         if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
             best = (int(rows.sum()), rows)
     if best is None:
@@ -352,17 +380,50 @@ def comotion_search(
     H = fit(pool.x_a[best[1]], pool.x_b[best[1]])
     if H is None:
         return None
-    chosen, rows = support(H)
+    chosen, rows = _support(pool, H, cfg, errors)
     if len(chosen) < cfg.comotion_min_pairs:
         return None
-    markers = tuple(
-        Marker(int(f), int(la), int(lb), _pt(xa), _pt(xb), float(h[0]), float(h[1]))
-        for f, (la, lb), xa, xb, h in zip(
-            pool.frame[rows], pool.labels[rows], pool.x_a[rows], pool.x_b[rows],
-            pool.heights[rows], strict=True,
-        )
-    )
-    return Comotion(H, tuple(sorted(chosen)), markers)
+    return _as_comotion(pool, H, chosen, rows, int(pool.frame.max()))
+
+
+def comotion_confirm(
+    pool: Candidates,
+    hypothesis: Comotion,
+    cfg: MarkerConfig,
+    errors: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+) -> tuple[str, Comotion | None]:
+    """The held-out check of a hypothesis on the pool's candidates newer than
+    ``hypothesis.since`` (never used to find it). Returns (verdict, hypothesis):
+
+    "confirmed", the hypothesis extended by the confirming pairs and their inliers, when at
+    least ``comotion_confirm_pairs`` one-to-one target pairs follow it again
+    (``comotion_confirm_support`` inliers each, mostly inliers); "rejected", None when one of
+    its own pairs has that many new candidates but mostly outliers (it stopped explaining its
+    own evidence) or ``comotion_confirm_frames`` passed without confirmation; else
+    "waiting", the hypothesis unchanged.
+    """
+    if cfg.comotion_confirm_pairs == 0:
+        return "confirmed", hypothesis
+    new = pool.frame > hypothesis.since
+    if new.any():
+        chosen, rows = _support(pool, hypothesis.H_b_from_a, cfg, errors, new,
+                                cfg.comotion_confirm_support)
+        if len(chosen) >= cfg.comotion_confirm_pairs:
+            later = _as_comotion(pool, hypothesis.H_b_from_a, chosen, rows,
+                                 int(pool.frame.max()))
+            links = tuple(sorted(set(hypothesis.links) | set(chosen)))
+            return "confirmed", Comotion(hypothesis.H_b_from_a, links,
+                                         hypothesis.markers + later.markers, later.since)
+        inlier = errors(hypothesis.H_b_from_a, pool.x_a, pool.x_b) < pool.gates_px(cfg)
+        for a_label, b_label in hypothesis.links:
+            own = new & (pool.labels[:, 0] == a_label) & (pool.labels[:, 1] == b_label)
+            n_own = int(own.sum())
+            if n_own >= cfg.comotion_confirm_support and (
+                    (inlier & own).sum() < cfg.comotion_min_frac * n_own):
+                return "rejected", None
+        if int(pool.frame.max()) - hypothesis.since > cfg.comotion_confirm_frames:
+            return "rejected", None
+    return "waiting", hypothesis
 
 
 def markers_add(state: MarkerState, markers: Sequence[Marker], cfg: MarkerConfig) -> MarkerState:
