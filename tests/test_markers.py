@@ -8,8 +8,10 @@ from mvtrack.params import MarkerConfig
 from mvtrack.stages.homography import solve_homography, transfer_errors
 from mvtrack.stages.markers import (
     Candidates,
+    Comotion,
     Marker,
     candidates_add,
+    comotion_confirm,
     comotion_search,
     marker_points,
     marker_step,
@@ -164,6 +166,37 @@ def test_comotion_needs_enough_distinct_pairs() -> None:
     assert comotion_search(pool, cfg, _fit, transfer_errors, np.random.default_rng(0)) is None
     assert comotion_search(Candidates.empty(), cfg, _fit, transfer_errors,
                            np.random.default_rng(0)) is None
+
+
+def _before(pool: Candidates, frame: int) -> Candidates:
+    keep = pool.frame < frame
+    return Candidates(pool.frame[keep], pool.labels[keep], pool.x_a[keep], pool.x_b[keep],
+                      pool.heights[keep])
+
+
+def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
+    cfg = MarkerConfig()
+    pool = _pool(4)
+    found = comotion_search(_before(pool, 50), cfg, _fit, transfer_errors,
+                            np.random.default_rng(0))
+    assert found is not None and found.since == 45 and len(found.markers) == 40
+    assert comotion_confirm(_before(pool, 50), found, cfg, transfer_errors) == ("waiting", found)
+    verdict, confirmed = comotion_confirm(pool, found, cfg, transfer_errors)
+    assert verdict == "confirmed" and confirmed is not None
+    assert confirmed.links == found.links and confirmed.since == 95
+    assert len(confirmed.markers) == 80  # the held-out candidates join the hypothesis's own
+    # A wrong H (30 px off) that its pairs followed by chance until frame 45: rejected, since
+    # its own pairs' later candidates are all outliers (gate max(4, 0.3 * 30) = 9 px).
+    wrong = Comotion(np.array([[1.0, 0, 230], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
+                     45)
+    assert comotion_confirm(pool, wrong, cfg, transfer_errors) == ("rejected", None)
+    # With no own evidence and no confirmation, it is dropped after comotion_confirm_frames.
+    stale = Comotion(wrong.H_b_from_a, ((7, 107),), (), 0)
+    assert comotion_confirm(pool, stale, cfg, transfer_errors)[0] == "waiting"
+    short = MarkerConfig(comotion_confirm_frames=50)
+    assert comotion_confirm(pool, stale, short, transfer_errors) == ("rejected", None)
+    off = MarkerConfig(comotion_confirm_pairs=0)
+    assert comotion_confirm(pool, wrong, off, transfer_errors) == ("confirmed", wrong)
 
 
 def test_markers_add_keeps_one_per_cell() -> None:
