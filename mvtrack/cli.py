@@ -34,7 +34,8 @@ app = typer.Typer(
 params_app = typer.Typer(help="Show and check thresholds files.", no_args_is_help=True)
 app.add_typer(params_app, name="params")
 
-out = Console()
+# Tables stay readable when piped to a file or CI log (Rich would cut them at 80 columns).
+out = Console(width=None if sys.stdout.isatty() else 160)
 err = Console(stderr=True)
 
 ParamsOpt = Annotated[
