@@ -102,18 +102,23 @@ class TrackRows:
         return TrackRows(*(getattr(self, f)[keep] for f in self.__dataclass_fields__))
 
 
+def _csv_rows(path: Path, header: tuple[str, ...]) -> list[list[str]]:
+    """The rows of a results CSV after checking its header; errors name the file."""
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no {path.name} here (run `mvtrack track` first)")
+    with path.open(newline="", encoding="utf-8") as f:
+        reader = csv.reader(f)
+        found = tuple(next(reader, ()))
+        if found != header:
+            raise ValueError(f"{path}:1: header {','.join(found)!r}, expected "
+                             f"{','.join(header)!r}")
+        return list(reader)
+
+
 def read_tracks(path: Path) -> TrackRows:
     """Read a `tracks.csv`; errors name the file and line."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no tracks.csv here (run `mvtrack track` first)")
-    with path.open(newline="", encoding="utf-8") as f:
-        reader = csv.reader(f)
-        header = tuple(next(reader, ()))
-        if header != TRACKS_HEADER:
-            raise ValueError(f"{path}:1: header {','.join(header)!r}, expected "
-                             f"{','.join(TRACKS_HEADER)!r}")
-        rows = list(reader)
+    rows = _csv_rows(path, TRACKS_HEADER)
     try:
         cols = list(zip(*rows, strict=True)) if rows else [()] * len(TRACKS_HEADER)
         num = np.array([list(map(float, c)) for i, c in enumerate(cols) if i != 1]).T
@@ -145,15 +150,7 @@ class CueRows:
 def read_cues(path: Path) -> CueRows:
     """Read a `cues.csv`; errors name the file."""
     path = Path(path)
-    if not path.is_file():
-        raise FileNotFoundError(f"{path}: no cues.csv here (run `mvtrack track` first)")
-    with path.open(newline="", encoding="utf-8") as f:
-        reader = csv.reader(f)
-        header = tuple(next(reader, ()))
-        if header != CUES_HEADER:
-            raise ValueError(f"{path}:1: header {','.join(header)!r}, expected "
-                             f"{','.join(CUES_HEADER)!r}")
-        rows = list(reader)
+    rows = _csv_rows(path, CUES_HEADER)
     try:
         num = np.array([[int(r[0]), int(r[1]), int(r[3]), int(r[4])] for r in rows],
                        np.int64).reshape(len(rows), 4)
