@@ -388,10 +388,7 @@ def bench(
             pets = shared_data_dir()
             clips = [demo] + ([pets / "pets2009-s2l1"] if pets else [])
         for clip in clips:
-            if clip.name == "pets2009-s2l1":
-                name, imgs, modality = "pets2009-s2l1/View_001", _pets_frames(clip, frames), "rgb"
-            else:
-                name, imgs, modality = _first_frames(clip, frames)
+            name, imgs, modality = _first_frames(clip, frames)
             err.print(f"timing {name} ({len(imgs)} frames)...")
             rows.append(bench_frontend(name, imgs, modality, params).as_dict())
         if viewer:
@@ -429,21 +426,6 @@ def _bench_viewer(clip: Path, frames: int, params: Params, tmp: Path,
                   f"{len(rng)} frames)...")
         result = bench_logging(opened, params, rng, tmp, LogOptions(thread=thread))
     return {"viewer_logging": result.as_dict(), "stages_ms": result.stage_rows()}
-
-
-def _pets_frames(folder: Path, n: int) -> list[Any]:
-    """PETS View_001 straight from the shared data folder's video."""
-    import cv2
-
-    cap = cv2.VideoCapture(str(folder / "View_001.avi"))
-    frames: list[Any] = []
-    while len(frames) < n:
-        ok, frame = cap.read()
-        if not ok:
-            break
-        frames.append(frame)
-    cap.release()
-    return frames
 
 
 def main() -> None:
