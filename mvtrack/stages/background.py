@@ -357,8 +357,8 @@ class _BlobPixels:
     label: np.ndarray
 
 
-def _blob_pixels(candidate: np.ndarray, blob_labels: np.ndarray) -> _BlobPixels:
-    index = np.flatnonzero(candidate)
+def _blob_pixels(index: np.ndarray, blob_labels: np.ndarray) -> _BlobPixels:
+    """index: (P,) int64 flat indices of the candidate pixels."""
     return _BlobPixels(index=index, label=blob_labels.ravel()[index])
 
 
@@ -583,11 +583,12 @@ def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
 
 
 def _group_fragments(
-    comp_labels: np.ndarray, stats: np.ndarray, cfg: BackgroundConfig
+    comp_labels: np.ndarray, stats: np.ndarray, index: np.ndarray, cfg: BackgroundConfig
 ) -> tuple[np.ndarray, np.ndarray]:
     """Join the connected components that are fragments of one person into one blob.
 
-    comp_labels: (H,W) int32 components 0..K; stats: (K+1, 5) OpenCV component stats.
+    comp_labels: (H,W) int32 components 0..K; stats: (K+1, 5) OpenCV component stats;
+    index: (P,) int64 flat indices of the labelled (candidate) pixels.
     Returns the blob label image (H,W) int32 0..G and the blobs' stats (G+1, 5) in the same
     layout (box of the union, summed area). Blob labels follow the order of each blob's first
     component, so with no links the components are returned unchanged.
@@ -621,7 +622,6 @@ def _group_fragments(
     out[1:, cv2.CC_STAT_HEIGHT] = hi_y[1:] - lo_y[1:]
     out[1:, cv2.CC_STAT_AREA] = np.bincount(g, weights=stats[1:, 4], minlength=n_groups + 1)[1:]
     labels = np.zeros_like(comp_labels)
-    index = np.flatnonzero(comp_labels)  # the few candidate pixels: cheaper than a full gather
     labels.ravel()[index] = lut[comp_labels.ravel()[index]]
     return labels, out
 
@@ -680,12 +680,13 @@ def background_step(
     _, comp_labels, comp_stats, _ = cv2.connectedComponentsWithStatsWithAlgorithm(
         candidate.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
     )
-    blob_labels, stats = _group_fragments(comp_labels, comp_stats, cfg)
+    index = np.flatnonzero(candidate)  # the few candidate pixels: cheaper than full gathers
+    blob_labels, stats = _group_fragments(comp_labels, comp_stats, index, cfg)
     assert planes[2] is not None
     flow_gray = _flow_gray(planes[2], cfg)
     k = stats.shape[0] - 1
     motion = _motion(state, flow_gray, frame.shape[1] // flow_gray.shape[1], k, cfg)
-    pixels = _blob_pixels(candidate, blob_labels)
+    pixels = _blob_pixels(index, blob_labels)
     max8 = np.zeros(k + 1, np.uint8)
     np.maximum.at(max8, pixels.label, dist8.ravel()[pixels.index])
     evidence = _BlobEvidence(
