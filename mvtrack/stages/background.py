@@ -337,12 +337,12 @@ def _distance_and_shadow(
         return dist, shadow
     colour = model.colour & (v > _u8_floor(cfg.colour_min_value))  # S and H mean something
     ds = cv2.absdiff(s, model.s)
-    ds[~colour] = 0
+    np.multiply(ds, colour.view(np.uint8), out=ds)  # 0 where S means nothing (no masked store)
     dh = np.subtract(h, model.h)  # uint8 wraps: (h1 - h2) mod 256
     dh = np.minimum(dh, np.negative(dh))  # circular difference, 0..128 (128 = π)
     hue_ok = colour & model.hue_ok & (s > _u8_floor(cfg.hue_min_sat))
     hue_term = cv2.add(dh, dh)  # saturating: 0..255 for [0, π]
-    hue_term[~hue_ok] = 0
+    np.multiply(hue_term, hue_ok.view(np.uint8), out=hue_term)
     dist = cv2.max(cv2.max(dist, ds), hue_term)
     sat_close = ds <= _u8_floor(cfg.shadow_sat_tol)  # true where S is not meaningful (ds = 0)
     hue_close = ~hue_ok | (dh <= _u8_floor(cfg.shadow_hue_tol_rad, 128.0 / math.pi))
