@@ -2,7 +2,7 @@
 
 ``np.median`` over a stack of 8 frames at 768×576×3 costs about 100 ms: it copies the stack and
 runs a per-pixel introselect. A sorting network needs only element-wise ``min``/``max`` of whole
-images, which numpy runs with SIMD at memory speed (about 0.14 ms per 1.3 MB image here). Batcher's
+images, which run with SIMD at memory speed (about 0.14 ms per 1.3 MB image here). Batcher's
 odd-even merge sort for n inputs, pruned backwards to the one comparator output the median
 needs, keeps 27 of the 38 min/max operations for n = 8. Run in cache-sized chunks this is about
 2.5 ms, 40× faster than ``np.median``, and *exact*.
@@ -17,6 +17,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from functools import lru_cache
 
+import cv2
 import numpy as np
 
 __all__ = ["lower_median", "median_network"]
@@ -27,7 +28,9 @@ Comparator = tuple[int, int, bool, bool]
 
 # Work in chunks of this many elements so that the n inputs and the temporaries of one chunk stay
 # in the CPU's L2 cache: 2.5 ms instead of 4.3 ms (whole images) for 8 frames at 768×576×3.
-_CHUNK_ELEMENTS = 32768
+# OpenCV's min/max (SIMD, less call overhead than numpy's ufuncs) on 65536-element chunks:
+# 2.3 ms against 2.7-3.1 ms for numpy on 32768 (8 frames at 768×576×3, one thread).
+_CHUNK_ELEMENTS = 65536
 
 
 def _batcher_pairs(n_pow2: int) -> list[tuple[int, int]]:
@@ -97,18 +100,14 @@ def lower_median(images: Sequence[np.ndarray]) -> np.ndarray:
     network, out_wire = median_network(len(images))
     flat = [np.ascontiguousarray(img).reshape(-1) for img in images]
     out = np.empty(first.size, dtype=first.dtype)
-    scratch = [np.empty(_CHUNK_ELEMENTS, dtype=first.dtype) for _ in range(2 * len(network))]
     for start in range(0, first.size, _CHUNK_ELEMENTS):
         wires = [f[start : start + _CHUNK_ELEMENTS] for f in flat]  # views; never written
         length = wires[0].shape[0]
-        k = 0
         for lo, hi, keep_min, keep_max in network:
             a, b = wires[lo], wires[hi]
             if keep_min:
-                wires[lo] = np.minimum(a, b, out=scratch[k][:length])
-                k += 1
+                wires[lo] = cv2.min(a, b)  # new (length, 1) arrays
             if keep_max:
-                wires[hi] = np.maximum(a, b, out=scratch[k][:length])
-                k += 1
-        out[start : start + length] = wires[out_wire]
+                wires[hi] = cv2.max(a, b)
+        out[start : start + length] = wires[out_wire].reshape(-1)
     return out.reshape(first.shape)
