@@ -327,6 +327,13 @@ class FovConfig(_Checked):
     crossing_max_shift_frames: int = param(
         30, "largest shift of an event's recording time to the border crossing (frames)", 0, 1000
     )
+    event_repeat_frames: int = param(
+        25,
+        "an event whose crosser already gave an event of the same point set this many frames "
+        "before or less is dropped (a target flickering at the margin crosses once)",
+        0,
+        10000,
+    )
     fov_match_heights: float = param(
         0.35,
         "association: largest |line . feet| divided by the target's height (body heights)",

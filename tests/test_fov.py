@@ -242,3 +242,22 @@ def test_crossers_picked_by_a_homography_refine_the_line() -> None:
     assert abs(abs(a) - 1) < 1e-3 and abs(-c / a - 100.3) < 0.5
     plain = estimate_line(slot, cfg, 5)  # Hough alone: the compact bystander cluster ties
     assert plain.line is not None and abs(plain.line.line[0]) < 0.99
+
+
+def test_a_crosser_flickering_at_the_margin_gives_one_event() -> None:
+    """Repeats of one crosser within ``event_repeat_frames`` cannot outvote other crossings:
+    six events of crosser 7 far off the line and four true crossings give the true line."""
+    rng = np.random.default_rng(3)
+    cfg = FovConfig(event_repeat_frames=25)
+    slot = new_slot("a", "b", "left", SIZE)
+    for k in range(6):  # one person flickering at B's border, seen at A's (20, 200)
+        slot = add_event(slot, 40 + 3 * k, _at([7], [[20.0, 200.0]]), cfg, event_target=7)
+    assert slot.n_events == 1 and len(slot.events) == 1
+    for k, y in enumerate([40.0, 100.0, 160.0, 220.0]):  # true line x = 150
+        slot = add_event(slot, 100 + 40 * k, _event_targets(rng, np.array([150.0, y]), k), cfg,
+                         event_target=20 + k)
+    slot = add_event(slot, 300, _at([7], [[20.0, 200.0]]), cfg, event_target=7)  # later: kept
+    assert slot.n_events == 6
+    slot = estimate_line(slot, cfg, 300)
+    assert slot.line is not None
+    assert _line_error(np.array(slot.line.line), 1.0, 0.0, -150.0) < 3.0

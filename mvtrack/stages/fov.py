@@ -259,8 +259,15 @@ def add_event(
     :mod:`mvtrack.stages.pair`); ``event_target`` is the crosser's label in the edge camera.
 
     The accumulator is updated incrementally; the oldest event beyond ``max_fov_events`` is
-    dropped and its votes removed.
+    dropped and its votes removed. An event of a known crosser that already gave a retained
+    event within ``event_repeat_frames`` is a repeat (a target flickering at the margin) and
+    leaves the slot unchanged.
     """
+    if event_target >= 0 and any(
+        e.event_target == event_target and abs(frame - e.frame) <= cfg.event_repeat_frames
+        for e in slot.events
+    ):
+        return slot
     labels = seen.labels.astype(np.int64, copy=True)
     feet = np.array(seen.feet, np.float64).reshape(-1, 2)
     repeats = np.zeros(len(labels))
