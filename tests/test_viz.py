@@ -371,3 +371,23 @@ def test_layout_saved_from_the_viewer_loads_by_path(scene: Path, tmp_path: Path)
     missing = CliRunner().invoke(app, [str(scene), "--save", str(rrd), "--no-viewer",
                                        "--layout", str(tmp_path / "gone.rbl")])
     assert missing.exit_code == 2 and "no such file" in " ".join(missing.output.split())
+
+
+def test_ground_map_is_bounded_by_where_feet_were_seen() -> None:
+    """A reference camera that sees to the horizon has a huge ground outline; the map's extent
+    follows the feet seen so far (with a margin of their extent) inside that outline."""
+    from types import SimpleNamespace
+
+    import numpy as np
+
+    from mvtrack.viz.sink import RerunSink
+
+    state = SimpleNamespace(_seen_box=None, _ground_from_ref=np.eye(3))  # metres
+    lo, hi = np.array([-500.0, -500.0]), np.array([500.0, 500.0])
+    unseen = RerunSink._map_box(state, lo, hi, np.zeros((0, 2)))  # type: ignore[arg-type]
+    assert np.array_equal(unseen[0], lo) and np.array_equal(unseen[1], hi)
+    box = RerunSink._map_box(state, lo, hi, np.array([[0.0, 0.0], [20.0, 10.0]]))  # type: ignore[arg-type]
+    assert np.allclose(box[0], [-20.0, -10.0]) and np.allclose(box[1], [40.0, 20.0])
+    # the box only grows, and feet far outside the outline do not stretch it
+    box = RerunSink._map_box(state, lo, hi, np.array([[5.0, 5.0], [900.0, 0.0]]))  # type: ignore[arg-type]
+    assert np.allclose(box[0], [-20.0, -10.0]) and np.allclose(box[1], [40.0, 20.0])

@@ -60,6 +60,7 @@ APP_ID = "mvtrack"
 _TRAIL_FRAMES = 100  # ground-map trail length per meta-target, frames
 _FOOT_GATE_HEIGHTS = 0.5  # viewer metric: a foot matches truth within half the person's height
 _GROUND_MARGIN = 1.0  # ground map: drawn up to this many reference-outline sizes beyond it
+_MAP_MIN_SPAN_M, _MAP_MIN_SPAN_PX = 5.0, 100.0  # ground map margin at least this (metres / px)
 
 
 @dataclass(frozen=True)
@@ -226,6 +227,7 @@ class RerunSink:
         self._trails: dict[int, list[np.ndarray]] = {}  # meta -> recent ground points
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
+        self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
         self.frames_logged = 0
         self.log_seconds = 0.0  # time spent building and handing over frames (any thread)
         self._thread: _LogThread | None = None
@@ -456,6 +458,8 @@ class RerunSink:
                              _outline(result.cameras[ref].targets.size))
         lo, hi = ref_outline.min(axis=0), ref_outline.max(axis=0)
         lo, hi = lo - _GROUND_MARGIN * (hi - lo), hi + _GROUND_MARGIN * (hi - lo)
+        ref_feet = _apply(np.eye(3) if to_out is None else to_out, result.cameras[ref].targets.feet)
+        lo, hi = self._map_box(lo, hi, ref_feet)
         pts, ids = [], []
         for name, cam in result.cameras.items():
             H = to_ref.get(name)
@@ -482,6 +486,27 @@ class RerunSink:
                                                        radii=radius,
                                                        labels=[f"m{m}" for m in allids.tolist()]))
         self._ground_truth(result.index)
+
+    def _map_box(self, lo: np.ndarray, hi: np.ndarray,
+                 ref_feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The map's extent: where the reference camera has seen feet so far, with a margin of
+        that extent, inside the outline box [lo, hi]; the outline box until feet are seen.
+
+        A camera whose view reaches the horizon has an outline hundreds of metres deep, which
+        would otherwise crowd every person into one corner of the map.
+        """
+        inside = ref_feet[np.all((ref_feet >= lo) & (ref_feet <= hi), axis=1)]
+        if len(inside):
+            parts = [inside.min(axis=0), inside.max(axis=0)]
+            if self._seen_box is not None:
+                parts += list(self._seen_box)
+            self._seen_box = (np.min(parts, axis=0), np.max(parts, axis=0))
+        if self._seen_box is None:
+            return lo, hi
+        seen_lo, seen_hi = self._seen_box
+        floor = _MAP_MIN_SPAN_PX if self._ground_from_ref is None else _MAP_MIN_SPAN_M
+        span = np.maximum(seen_hi - seen_lo, floor)
+        return np.maximum(lo, seen_lo - span), np.minimum(hi, seen_hi + span)
 
     def _g(self, pts: np.ndarray) -> np.ndarray:
         """Ground coordinates for the view: reference pixels get +0.5 px, metres are as is."""
