@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from mvtrack.evaluate.metrics import FrameRows, frame_matches, idf1
+from mvtrack.evaluate.metrics import FrameRows, idf1, match_all
 from mvtrack.io import Truth
 from mvtrack.io.results import CueRows, TrackRows, read_cues
 
@@ -66,24 +66,18 @@ class Matched:
 def match_rows(truth: Truth, rows: TrackRows, cameras: list[str], frames: range,
                cfg: LabelConfig) -> Matched:
     """Per camera and frame, height-gated Hungarian matching of predictions to truth."""
-    cols: list[list[int]] = [[], [], [], []]
+    parts: list[list[np.ndarray]] = [[], [], [], []]
     for c, name in enumerate(cameras):
         t = FrameRows.from_truth(truth.cameras[name], frames)
         mine = rows.of_camera(name)
-        t_by = t.by_frame()
-        p_by = FrameRows.of(mine.frame, mine.meta, mine.feet).by_frame()
-        for frame, p_idx in p_by.items():
-            t_idx = t_by.get(frame, np.zeros(0, np.int64))
-            i, j = frame_matches(mine.feet[p_idx], t.feet[t_idx], t.heights[t_idx],
-                                 cfg.gate_heights)
-            ok = t.visible[t_idx[j]] >= cfg.min_visible
-            for pi, tj in zip(p_idx[i[ok]], t_idx[j[ok]], strict=True):
-                cols[0].append(frame)
-                cols[1].append(c)
-                cols[2].append(int(t.ids[tj]))
-                cols[3].append(int(mine.meta[pi]))
-    arrays = [np.asarray(col, np.int64) for col in cols]
-    return Matched(*arrays)
+        m = match_all(FrameRows.of(mine.frame, mine.meta, mine.feet), t, cfg.gate_heights,
+                      cfg.min_visible)
+        parts[0].append(mine.frame[m.pred_rows])
+        parts[1].append(np.full(len(m.pred_rows), c, np.int64))
+        parts[2].append(t.ids[m.true_rows])
+        parts[3].append(mine.meta[m.pred_rows])
+    return Matched(*(np.concatenate(col).astype(np.int64) if col else np.zeros(0, np.int64)
+                     for col in parts))
 
 
 def _global_idf1(truth: Truth, rows: TrackRows, cameras: list[str], frames: range,

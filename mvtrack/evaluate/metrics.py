@@ -21,10 +21,12 @@ from mvtrack.io import CameraTruth
 __all__ = [
     "FrameRows",
     "MaskScores",
+    "Matches",
     "detection_scores",
     "frame_matches",
     "idf1",
     "mask_scores",
+    "match_all",
 ]
 
 _BIG = 1e9
@@ -89,15 +91,17 @@ def frame_matches(
 
 
 @dataclass(frozen=True)
-class _Matched:
+class Matches:
     pred_rows: np.ndarray  # global row indices into pred, matched to counted truth
     true_rows: np.ndarray  # global row indices into truth
     pred_counted: int  # predictions not matched to a don't-care truth row
     true_counted: int  # truth rows at least min_visible visible
 
 
-def _match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
-               min_visible: float) -> _Matched:
+def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
+              min_visible: float) -> Matches:
+    """Per-frame height-gated matching of every frame; only truth rows at least
+    ``min_visible`` visible count (predictions matched to others are ignored)."""
     pred_by, true_by = pred.by_frame(), truth.by_frame()
     pr, tr = [], []
     pred_ignored = 0
@@ -109,7 +113,7 @@ def _match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
         pred_ignored += int((~counted).sum())
         pr.append(p_idx[i[counted]])
         tr.append(t_idx[j[counted]])
-    return _Matched(
+    return Matches(
         pred_rows=np.concatenate(pr) if pr else np.zeros(0, np.int64),
         true_rows=np.concatenate(tr) if tr else np.zeros(0, np.int64),
         pred_counted=len(pred.frames) - pred_ignored,
@@ -124,7 +128,7 @@ def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.
     Feet error is over matched pairs: median and 90th percentile in px and as a fraction of
     the truth height.
     """
-    m = _match_all(pred, truth, gate_heights, min_visible)
+    m = match_all(pred, truth, gate_heights, min_visible)
     hits = len(m.true_rows)
     err = np.linalg.norm(pred.feet[m.pred_rows] - truth.feet[m.true_rows], axis=1)
     rel = err / np.maximum(truth.heights[m.true_rows], 1.0)
@@ -151,7 +155,7 @@ def idf1(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
     The per-frame matches decide which (pred id, truth id) pairs co-occur; the id-to-id
     assignment that maximizes co-occurrences gives IDTP.
     """
-    m = _match_all(pred, truth, gate_heights, min_visible)
+    m = match_all(pred, truth, gate_heights, min_visible)
     nan = float("nan")
     if m.true_counted + m.pred_counted == 0:
         return {"idf1": nan, "idp": nan, "idr": nan, "idtp": 0}

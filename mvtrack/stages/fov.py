@@ -20,7 +20,7 @@ from scipy import ndimage
 
 from mvtrack.params import FovConfig
 from mvtrack.stages.homography import apply_homography
-from mvtrack.stages.targets import SIDES, CameraTargets
+from mvtrack.stages.targets import SIDES, CameraTargets, touching_sides
 
 __all__ = [
     "FovEvent",
@@ -158,20 +158,14 @@ def new_slot(seen_in: str, edge_of: str, side: str, size: tuple[int, int]) -> Fo
 def mask_touching_sides(mask: np.ndarray, margin_px: float) -> np.ndarray:
     """(4,) bool, SIDES order: which borders a (H, W) bool mask comes within ``margin_px`` of.
 
-    Same rule as :func:`mvtrack.stages.targets.touching_sides` on the mask's box.
+    The rule of :func:`mvtrack.stages.targets.touching_sides`, applied to the mask's box.
     """
     rows, cols = np.nonzero(mask)
     if len(rows) == 0:
         return np.zeros(4, bool)
+    box = np.array([[cols.min() - 0.5, rows.min() - 0.5, np.ptp(cols) + 1, np.ptp(rows) + 1]])
     height, width = mask.shape
-    return np.array(
-        [
-            cols.min() <= margin_px,
-            cols.max() >= width - 1 - margin_px,
-            rows.min() <= margin_px,
-            rows.max() >= height - 1 - margin_px,
-        ]
-    )
+    return touching_sides(box, (width, height), margin_px)[0]
 
 
 def detect_events(
