@@ -240,7 +240,7 @@ def track(
     """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
     from mvtrack.io.results import ResultsWriter
     from mvtrack.pipeline import run
-    from mvtrack.report import run_info
+    from mvtrack.run_info import run_info
 
     if matcher is not None:
         set_ = [*(set_ or []), f"matcher.method={matcher}"]

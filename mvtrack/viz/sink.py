@@ -152,7 +152,7 @@ def new_recording(name: str, deterministic: bool = False) -> rr.RecordingStream:
 
 def clip_document(spec: ClipSpec, frames: range) -> str:
     """Markdown description of a clip and the mvtrack version, for ``/clip``."""
-    from mvtrack.report import package_versions
+    from mvtrack.run_info import package_versions
 
     lines = [f"# {spec.root.name}", "", f"- path: `{spec.root}`", f"- fps: {spec.fps:g}",
              f"- frames: {frames.start}..{frames.stop - 1} of {spec.frame_count}",
