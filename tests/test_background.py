@@ -23,7 +23,7 @@ from mvtrack.stages.background import (
     stacked_boxes,
     train_background,
 )
-from mvtrack.stages.median import lower_median, median_network
+from mvtrack.stages.median import clamp, lower_median, median_network, order_statistics
 
 H, W = 120, 160
 CFG = BackgroundConfig(train_frames=10)
@@ -65,6 +65,46 @@ def test_median_network_is_pruned_and_inputs_untouched() -> None:
     assert not any(np.shares_memory(out, s) for s in stack)
     with pytest.raises(ValueError, match="image 1"):
         lower_median([stack[0], stack[1][:5]])
+
+
+@settings(max_examples=100, deadline=None)
+@given(n=st.integers(1, 12), data=st.data())
+def test_order_statistics_equal_sorting(n: int, data: st.DataObject) -> None:
+    stack = data.draw(arrays(np.uint8, (n, 6, 5), elements=st.integers(0, 4)))  # many ties
+    ranks = data.draw(st.lists(st.integers(0, n - 1), min_size=1, max_size=3))
+    got = order_statistics(list(stack), ranks)
+    ordered = np.sort(stack, axis=0)
+    assert len(got) == len(ranks)
+    for rank, out in zip(ranks, got, strict=True):
+        np.testing.assert_array_equal(out, ordered[rank])
+    if n >= 3:  # rank k of n images = the last clamped between ranks k-1, k of the others
+        k = (n - 1) // 2
+        lo, hi = order_statistics(list(stack[:-1]), (k - 1, k))
+        np.testing.assert_array_equal(clamp(stack[-1], lo, hi), ordered[k])
+    with pytest.raises(ValueError, match="ranks"):
+        order_statistics(list(stack), [n])
+
+
+@pytest.mark.parametrize(("n", "m"), [(8, 5), (3, 1), (4, 2), (2, 3), (1, 2), (9, 4)])
+def test_fifo_median_shares_work_and_equals_lower_median(n: int, m: int) -> None:
+    """The background's B sequence equals the plain lower median of the FIFO samples at every
+    step, and half of the steps reuse a stored pair (n >= 3)."""
+    rng = np.random.default_rng(n * 10 + m)
+    cfg = dataclasses.replace(CFG, fifo_n=n, fifo_spacing_frames=m, train_frames=3)
+    frames = [rng.integers(0, 6, (12, 16, 3), dtype=np.uint8) for _ in range(60)]
+    state = train_background(frames[:3], "rgb", cfg)
+    fifo = list(state.fifo)
+    stored = []
+    for frame in frames[3:]:
+        state, _ = background_step(state, frame, cfg)
+        fifo = fifo[1:] + [state.fifo[-1]]
+        samples = [fifo[len(fifo) - 1 - i * m] for i in range(n)]
+        np.testing.assert_array_equal(state.background, lower_median(samples))
+        stored.append(sum(pair is not None for pair in state.shared))
+    if n >= 3:
+        assert len(state.shared) == m and 0 < max(stored) <= m
+    else:
+        assert state.shared == ()
 
 
 # ------------------------------------------------------------------------- scene building

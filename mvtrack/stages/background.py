@@ -38,6 +38,11 @@ Choices beyond the thesis (each with its config field):
 - **FIFO length.** The newest frame and every m-th older one are the n samples, so the FIFO
   keeps (n − 1)·m + 1 frames (the thesis sizes it n·m; the extra frames are never selected).
 - **Median.** Exact lower median (:mod:`mvtrack.stages.median`): 2.5 ms for n = 8 at 768×576×3.
+  Consecutive medians of one spacing phase share n − 1 samples: a frame whose phase has no
+  shared part stored computes ranks k−1 and k (k = (n − 1) // 2) of its n − 1 newest samples,
+  stores them, and clamps the oldest sample between them; the frame m later clamps its newest
+  sample between the stored pair (2 operations instead of the network). Same B, bit for bit,
+  at about half the cost over the frames (``BackgroundState.shared``).
 
 Immutability: inputs are never modified; arrays kept in the state (FIFO frames, background) are
 read-only and shared with results only read-only; every other result array is new per call.
@@ -56,7 +61,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import BackgroundConfig
-from mvtrack.stages.median import lower_median
+from mvtrack.stages.median import clamp, lower_median, order_statistics
 
 __all__ = [
     "BackgroundResult",
@@ -105,6 +110,9 @@ class BackgroundState:
     mvo_age:     (H,W) uint16, read-only, or None before the first step: last frame's MVO
                  pixels, 1 + the frames in a row their blob was held without moving (1: it
                  moved); 0 elsewhere
+    shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
+                 k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
+                 next median reuses, or None; () means all None (n < 3 never stores any)
     """
 
     modality: str
@@ -113,6 +121,7 @@ class BackgroundState:
     recent_v: tuple[np.ndarray, ...]
     frame_index: int
     mvo_age: np.ndarray | None = None
+    shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
 
     @property
     def background(self) -> np.ndarray:
@@ -635,16 +644,43 @@ def _candidates(dist8: np.ndarray, shadow: np.ndarray, cfg: BackgroundConfig) ->
     return raw & ~shadow
 
 
+_Shared = tuple[tuple[np.ndarray, np.ndarray] | None, ...]
+
+
+def _fifo_median(
+    samples: Sequence[np.ndarray], shared: _Shared, spacing: int
+) -> tuple[np.ndarray, _Shared]:
+    """Lower median of the FIFO samples (newest first, n of them) and the new ``shared``.
+
+    With k = (n-1)//2 and lo, hi ranks k-1 and k of n-1 samples, rank k of those and x is
+    clamp(x, lo, hi). The samples m steps ago without their oldest are this step's samples
+    without the newest: a pair stored then gives this median from the newest sample alone.
+    """
+    n = len(samples)
+    if n < 3:
+        return lower_median(samples), ()
+    slots = shared if len(shared) == spacing else (None,) * spacing
+    stored = slots[0]
+    if stored is not None:
+        return clamp(samples[0], *stored), (*slots[1:], None)
+    k = (n - 1) // 2
+    lo, hi = order_statistics(samples[:-1], (k - 1, k))
+    median = clamp(samples[-1], lo, hi)
+    return median, (*slots[1:], (_readonly(lo), _readonly(hi)))
+
+
 def _update(
     state: BackgroundState, frame: np.ndarray, keep_out: np.ndarray, cfg: BackgroundConfig
-) -> tuple[tuple[np.ndarray, ...], _Model]:
-    """Push the frame with ``keep_out`` pixels replaced by B; the new FIFO and B."""
+) -> tuple[tuple[np.ndarray, ...], _Model, _Shared]:
+    """Push the frame with ``keep_out`` pixels replaced by B; the new FIFO, B and shared
+    ranks."""
     pushed = frame.copy()
     cv2.copyTo(state.model.bgr, keep_out.view(np.uint8), pushed)
     fifo = (*state.fifo[1:], _readonly(pushed))
     newest = len(fifo) - 1
     samples = [fifo[newest - i * cfg.fifo_spacing_frames] for i in range(cfg.fifo_n)]
-    return fifo, _model(lower_median(samples), state.modality, cfg)
+    median, shared = _fifo_median(samples, state.shared, cfg.fifo_spacing_frames)
+    return fifo, _model(median, state.modality, cfg), shared
 
 
 def _motion(
@@ -702,7 +738,7 @@ def background_step(
     age_of_mvo = np.minimum(age[blobs.is_mvo], 65535)  # in MVO label order
     mvo_age.ravel()[mvo_index] = age_of_mvo[mvo_labels.ravel()[mvo_index] - 1]
     fg_shadow = _split_shadows(shadow, mvo, mvo_index)
-    fifo, model = _update(state, frame, mvo | fg_shadow, cfg)
+    fifo, model, shared = _update(state, frame, mvo | fg_shadow, cfg)
     result = BackgroundResult(
         frame_index=state.frame_index,
         background_bgr=state.model.bgr,
@@ -723,5 +759,6 @@ def background_step(
         recent_v=(*state.recent_v, flow_gray)[-cfg.flow_gap_frames :],
         frame_index=state.frame_index + 1,
         mvo_age=_readonly(mvo_age),
+        shared=shared,
     )
     return new_state, result
