@@ -194,12 +194,15 @@ def test_bench_table_splits_the_wall_time_by_stage(scene: Path, tmp_path: Path) 
     assert list(rows)[:len(STAGES)] == list(STAGES)
     wall_off = rows["wall"]["ms_off"]
     stages_off = sum(rows[s]["ms_off"] for s in STAGES)
-    assert 0.3 * wall_off < stages_off <= wall_off * 1.01 + 0.2  # stages lie inside the loop
+    # stages lie inside the loop; the cameras' front ends run concurrently, each counted
+    front = sum(rows[s]["ms_off"] for s in ("background", "tracker", "feet"))
+    assert 0.3 * wall_off < stages_off <= wall_off * 1.01 + 0.2 + front * (1 - 1 / result.cameras)
     assert rows["logging (thread)"]["ms_on"] > 0
     d = result.as_dict()
     assert d["on_over_off"] == pytest.approx(d["fps_viewer_on"] / d["fps_viewer_off"], abs=0.02)
     assert d["realtime_on"] == pytest.approx(d["fps_viewer_on"] / 25.0, abs=0.02)
     assert 1.0 < d["kib_per_frame"] < 200.0
+    assert d["cpu_ms_on"] > d["cpu_ms_off"] > 0.0  # logging is work, whichever thread does it
 
 
 # ------------------------------------------------------------------------ clip read-ahead

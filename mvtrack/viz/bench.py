@@ -36,9 +36,13 @@ class LoggingBench:
                       logging thread when it runs, overlapping the pipeline)
     bytes_per_frame:  recording size / frames
     stage_ms_off, stage_ms_on: per stage (:data:`~mvtrack.pipeline.STAGES`), milliseconds per
-                      frame set, all cameras, in each run
+                      frame set, summed over cameras, in each run (the cameras' front ends run
+                      concurrently, so their shares of the wall time can add up to more than 1)
     clip_fps:         the clip's frame rate (real time)
     thread:           whether the sink logged on its background thread
+    cpu_ms_off, cpu_ms_on: CPU time of the whole process (every thread, the SDK's included) per
+                      frame set, training excluded: what logging costs in work, a figure that
+                      other programs on a shared machine disturb less than the wall time
     """
 
     name: str
@@ -53,6 +57,8 @@ class LoggingBench:
     stage_ms_on: dict[str, float] = field(default_factory=dict)
     clip_fps: float = 25.0
     thread: bool = True
+    cpu_ms_off: float = 0.0
+    cpu_ms_on: float = 0.0
 
     def as_dict(self) -> dict[str, Any]:
         """The table row: sizes, fps off/on, their ratio, real-time factors, log ms, KiB."""
@@ -66,6 +72,8 @@ class LoggingBench:
             "on_over_off": round(self.fps_on / max(self.fps_off, 1e-9), 2),
             "realtime_on": round(self.fps_on / max(self.clip_fps, 1e-9), 2),
             "log_ms_per_frame": round(self.log_ms_per_frame, 2),
+            "cpu_ms_off": round(self.cpu_ms_off, 1),
+            "cpu_ms_on": round(self.cpu_ms_on, 1),
             "kib_per_frame": round(self.bytes_per_frame / 1024.0, 1),
         }
 
@@ -95,14 +103,15 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
                   options: LogOptions | None = None) -> LoggingBench:
     """Time ``frames`` of ``clip`` without sinks, then logging to ``out_dir/bench.rrd``."""
     opts = options or LogOptions()
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     off = run(clip, params, frames, [])
     off_s = time.perf_counter() - start - off.train_seconds
+    off_cpu = time.process_time() - cpu - off.train_seconds  # training runs on one thread
 
     rrd = out_dir / "bench.rrd"
     rec = new_recording(f"bench {clip.spec.root.name}", deterministic=True)
     outputs = open_outputs(rec, Target(save=rrd, viewer="none"), _blueprint(clip))
-    start = time.perf_counter()
+    start, cpu = time.perf_counter(), time.process_time()
     sink = RerunSink(rec, clip.spec, params, opts, frames=frames)
     try:
         on = run(clip, params, frames, [sink])
@@ -110,6 +119,7 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
         sink.close()  # the logging thread has logged every frame
         outputs.close()  # the file is complete once the SDK has written everything
     on_s = time.perf_counter() - start - on.train_seconds
+    on_cpu = time.process_time() - cpu - on.train_seconds
 
     cam = clip.spec.cameras[0]
     n = max(on.frames, 1)
@@ -118,7 +128,8 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
         frames=on.frames, fps_off=off.frames / max(off_s, 1e-9), fps_on=on.frames / max(on_s, 1e-9),
         log_ms_per_frame=1000.0 * sink.log_seconds / n, bytes_per_frame=rrd.stat().st_size / n,
         stage_ms_off=_per_frame_ms(off), stage_ms_on=_per_frame_ms(on), clip_fps=clip.spec.fps,
-        thread=opts.thread,
+        thread=opts.thread, cpu_ms_off=1000.0 * off_cpu / max(off.frames, 1),
+        cpu_ms_on=1000.0 * on_cpu / n,
     )
 
 
