@@ -29,6 +29,7 @@ __all__ = [
     "meta_context",
     "metas_image",
     "ring_strips",
+    "strips_key",
     "to_viewer",
 ]
 
@@ -96,9 +97,10 @@ def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
                 ghost_shadow: np.ndarray) -> rr.SegmentationImage:
     """One coded (H,W) uint8 image of the four (H,W) bool masks (:data:`paths.MASK_LAYER`)."""
     bits = [np.ascontiguousarray(m).view(np.uint8) for m in (mvo, ghost, fg_shadow, ghost_shadow)]
-    packed = bits[0].copy()  # bool -> 0/1 bytes, one bit per mask
-    for k in (1, 2, 3):
-        packed |= bits[k] << k
+    # bool -> 0/1 bytes, one bit per mask: m0 + 2 m1 + 4 m2 + 8 m3 in three OpenCV calls (exact
+    # small integers; 0.43 ms against 0.72 for shifts and ors at 768x576)
+    packed = cv2.add(cv2.addWeighted(bits[0], 1.0, bits[1], 2.0, 0.0),
+                     cv2.addWeighted(bits[2], 4.0, bits[3], 8.0, 0.0))
     codes = np.asarray(cv2.LUT(packed, _MASK_CODES), np.uint8)
     return rr.SegmentationImage(codes, opacity=0.6, draw_order=-5.0)
 
@@ -178,3 +180,10 @@ def ring_strips(centres_xy: np.ndarray, radius_px: float, n: int = 16) -> list[n
     return [np.asarray(c, np.float64) + circle for c in np.asarray(centres_xy).reshape(-1, 2)]
 
 
+def strips_key(strips: Sequence[np.ndarray], labels: Sequence[str]) -> bytes:
+    """The bytes that identify a line-strips layer (its labels, each strip's points), for
+    logging it only when it changes."""
+    parts = ["\x1f".join(labels).encode()]
+    for strip in strips:
+        parts += [len(strip).to_bytes(4, "little"), np.asarray(strip, np.float64).tobytes()]
+    return b"\x1e".join(parts)

@@ -7,6 +7,7 @@ reads its documented fields) and logs through a :class:`~mvtrack.viz.sink.RerunS
 from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import cv2
@@ -16,7 +17,7 @@ import rerun as rr
 from mvtrack.pipeline import FrameResult
 from mvtrack.stages.targets import SIDES
 from mvtrack.viz import paths
-from mvtrack.viz.log import line_strip_in_frame, ring_strips, to_viewer
+from mvtrack.viz.log import line_strip_in_frame, ring_strips, strips_key, to_viewer
 
 if TYPE_CHECKING:
     from mvtrack.viz.sink import RerunSink
@@ -108,8 +109,10 @@ def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResu
             labels[slot.seen_in].append(f"{slot.edge_of} {slot.side} edge")
     for cam in (a, b):
         other = b if cam == a else a
-        sink.rec.log(paths.camera_pair_layer(cam, "fov_lines", other), rr.LineStrips2D(
-            strips[cam], labels=labels[cam], colors=(0, 255, 255), radii=1.5, draw_order=8.0))
+        sink.log_changed(paths.camera_pair_layer(cam, "fov_lines", other),
+                         strips_key(strips[cam], labels[cam]),
+                         partial(rr.LineStrips2D, strips[cam], labels=labels[cam],
+                                 colors=(0, 255, 255), radii=1.5, draw_order=8.0))
     if pr.reestimated:
         _log_hough(sink, key, pr)
         for idx, side in pr.reestimated:

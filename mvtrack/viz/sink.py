@@ -31,6 +31,7 @@ import time
 import uuid
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -50,6 +51,7 @@ from mvtrack.viz.log import (
     masks_layer,
     meta_context,
     metas_image,
+    strips_key,
     to_viewer,
 )
 
@@ -228,6 +230,7 @@ class RerunSink:
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
+        self._last_keys: dict[str, bytes] = {}  # path -> what was last logged there (log_changed)
         self.frames_logged = 0
         self.log_seconds = 0.0  # time spent building and handing over frames (any thread)
         self._thread: _LogThread | None = None
@@ -291,6 +294,16 @@ class RerunSink:
             cuts = np.flatnonzero(np.diff(ct.frame[order])) + 1
             out[name] = {int(ct.frame[g[0]]): g for g in np.split(order, cuts) if len(g)}
         return out
+
+    def log_changed(self, path: str, key: bytes, build: Callable[[], Any]) -> None:
+        """Log ``build()`` on ``path`` unless ``key`` (the bytes the layer is made of) equals
+        what was last logged there. The viewer shows the latest value at every later frame, so
+        a layer that rarely changes (learned FOV lines, the ground outlines) is the same on
+        screen, built and stored only when it changes."""
+        if self._last_keys.get(path) == key:
+            return
+        self._last_keys[path] = key
+        self.rec.log(path, build())
 
     # ----------------------------------------------------------------------------- text
 
@@ -468,11 +481,11 @@ class RerunSink:
             if to_out is not None:
                 H = to_out @ H
             size = cam.targets.size
-            runs = _inside_runs(_apply(H, _outline(size)), lo, hi)
+            runs = [self._g(r) for r in _inside_runs(_apply(H, _outline(size)), lo, hi)]
             width = 0.5 if to_out is None else 0.03
-            self.rec.log(paths.ground_fov(name), rr.LineStrips2D(
-                [self._g(r) for r in runs], radii=width,
-                labels=[name] + [""] * (len(runs) - 1) if runs else []))
+            labels = [name] + [""] * (len(runs) - 1) if runs else []
+            self.log_changed(paths.ground_fov(name), strips_key(runs, labels),
+                             partial(rr.LineStrips2D, runs, radii=width, labels=labels))
             feet = _apply(H, cam.targets.feet)
             if len(feet) == len(cam.targets):
                 near = np.all((feet >= lo) & (feet <= hi), axis=1)
