@@ -319,6 +319,30 @@ def test_darkened_same_hue_region_is_shadow_not_foreground() -> None:
     assert r.shadow[:, 65:95].sum() == 0  # untouched ground is not shadow
 
 
+@pytest.mark.parametrize("hue_min_sat, legs_are_shadow", [(0.09, False), (0.15, True)])
+def test_gray_trousers_on_gray_pavement_are_not_shadow(hue_min_sat: float,
+                                                      legs_are_shadow: bool) -> None:
+    """Pale pavement (S ~ 0.12) and blue-gray trousers as dark as a shadow: their hue differs,
+    a shadow's does not. Hue counts in the shadow test from shadow_hue_min_sat on (0.09); with
+    hue ignored below 0.15 the legs would be called shadow and cut off the person."""
+    rng = np.random.default_rng(5)
+    pavement = np.array([150.0, 160.0, 170.0])  # BGR: S = 20/170, orange-ish hue
+    ground = np.clip(pavement + rng.normal(0.0, 1.0, (H, W, 3)), 0, 255).astype(np.uint8)
+    cfg = dataclasses.replace(CFG, shadow_hue_min_sat=hue_min_sat)
+    state = _train(ground, rng, cfg=cfg)
+    frame = _noisy(ground, rng).astype(np.float64)
+    frame[30:60, 20:60] *= 0.6  # cast shadow: same hue, 60 % of the value
+    frame[30:60, 100:140] = [110.0, 100.0, 95.0]  # trousers: V 0.65 of B, S 15/110, bluish
+    state, r = background_step(state, frame.astype(np.uint8), cfg)
+    assert r.shadow[30:60, 20:60].mean() > 0.95
+    assert r.candidate[30:60, 20:60].sum() == 0
+    if legs_are_shadow:
+        assert r.shadow[30:60, 100:140].mean() > 0.95
+    else:
+        assert r.shadow[30:60, 100:140].mean() < 0.05
+        assert r.candidate[32:58, 102:138].mean() > 0.95
+
+
 def test_shadow_attached_to_mvo_is_foreground_shadow() -> None:
     rng = np.random.default_rng(4)
     ground, person = _ground(rng), _person(rng)
@@ -519,14 +543,14 @@ def test_generated_pair_masks_and_shadows(tmp_path: Path) -> None:
         f"generated pair: people inside the frame recall {hits / n_true:.3f}, "
         f"MVO precision {hits / n_pred:.3f}, {dict((k, round(v, 3)) for k, v in s.items())}"
     )
-    # measured (both cameras, seed 0, generator of this commit): shadow detection 0.899, fg
-    # precision 0.836, fg recall 0.746, shadow discrimination 0.851, recall 0.928, precision
-    # 0.898 (without joining fragments: 0.892, 0.818, 0.725, 0.853, 0.924, 0.844); blob level,
-    # before tracking.
+    # measured (both cameras, seed 0): shadow detection 0.890, fg precision 0.857, fg recall
+    # 0.826, shadow discrimination 0.904, recall 0.972, precision 0.959; blob level, before
+    # tracking. With hue ignored in the shadow test below S 0.15 (shadow_hue_min_sat = 0.15):
+    # 0.899, 0.836, 0.746, 0.851 (legs of gray trousers called shadow).
     assert s["shadow_detection"] >= 0.8  # issue 3 target
     assert s["fg_precision"] >= 0.8
-    assert s["fg_recall"] >= 0.7
-    assert s["shadow_discrimination"] >= 0.82  # person pixels not called shadow
+    assert s["fg_recall"] >= 0.78
+    assert s["shadow_discrimination"] >= 0.88  # person pixels not called shadow
     assert hits / n_true >= 0.9  # people touching the frame border are not counted
     assert hits / n_pred >= 0.87
 

@@ -82,7 +82,8 @@ class _Model:
 
     bgr: (H,W,3) or (H,W) uint8 B; h, s, v: (H,W) uint8 planes (h, s None for gray);
     ratio_lo, ratio_hi: (H,W) uint8, the I_V range with α ≤ I_V/B_V ≤ β (lo > hi where B_V = 0);
-    colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat (both None for gray);
+    colour: (H,W) bool, B_V > colour_min_value; hue_ok: B_S > hue_min_sat; shadow_hue_ok:
+    B_S > shadow_hue_min_sat (all three None for gray)
     """
 
     bgr: np.ndarray
@@ -93,6 +94,7 @@ class _Model:
     ratio_hi: np.ndarray
     colour: np.ndarray | None
     hue_ok: np.ndarray | None
+    shadow_hue_ok: np.ndarray | None
 
 
 @dataclass(frozen=True, eq=False)
@@ -238,12 +240,13 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
     """Derive the per-B planes used by every frame's comparison."""
     bgr = _readonly(bgr)
     if modality == "gray":
-        h = s = colour = hue_ok = None
+        h = s = colour = hue_ok = shadow_hue_ok = None
         v = bgr
     else:
         h, s, v = cv2.split(cv2.cvtColor(bgr, cv2.COLOR_BGR2HSV_FULL))
         colour = v > _u8_floor(cfg.colour_min_value)
         hue_ok = s > _u8_floor(cfg.hue_min_sat)
+        shadow_hue_ok = s > _u8_floor(cfg.shadow_hue_min_sat)
     lo_lut, hi_lut = _ratio_luts(cfg.shadow_alpha, cfg.shadow_beta)
     return _Model(
         bgr=bgr,
@@ -254,6 +257,7 @@ def _model(bgr: np.ndarray, modality: str, cfg: BackgroundConfig) -> _Model:
         ratio_hi=cv2.LUT(v, hi_lut),
         colour=colour,
         hue_ok=hue_ok,
+        shadow_hue_ok=shadow_hue_ok,
     )
 
 
@@ -341,6 +345,7 @@ def _distance_and_shadow(
         or model.s is None
         or model.colour is None
         or model.hue_ok is None
+        or model.shadow_hue_ok is None
     ):
         shadow = ratio_ok if cfg.gray_shadows else np.zeros_like(ratio_ok)
         return dist, shadow
@@ -354,7 +359,8 @@ def _distance_and_shadow(
     np.multiply(hue_term, hue_ok.view(np.uint8), out=hue_term)
     dist = cv2.max(cv2.max(dist, ds), hue_term)
     sat_close = ds <= _u8_floor(cfg.shadow_sat_tol)  # true where S is not meaningful (ds = 0)
-    hue_close = ~hue_ok | (dh <= _u8_floor(cfg.shadow_hue_tol_rad, 128.0 / math.pi))
+    shadow_hue_ok = colour & model.shadow_hue_ok & (s > _u8_floor(cfg.shadow_hue_min_sat))
+    hue_close = ~shadow_hue_ok | (dh <= _u8_floor(cfg.shadow_hue_tol_rad, 128.0 / math.pi))
     return dist, ratio_ok & sat_close & hue_close
 
 
