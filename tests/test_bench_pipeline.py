@@ -1,10 +1,12 @@
 """The pipeline runs the cameras' front ends concurrently: each camera's results must be those
-of that camera's front end run alone, one frame after the other."""
+of that camera's front end run alone, one frame after the other; viewer runs keep OpenCV on one
+thread."""
 
 from __future__ import annotations
 
 from pathlib import Path
 
+import cv2
 import numpy as np
 import pytest
 from test_viz_scene import write_scene_clip
@@ -15,6 +17,7 @@ from mvtrack.pipeline import FrameResult, run, train_backgrounds
 from mvtrack.stages.background import background_step
 from mvtrack.stages.blobtrack import track_masks, tracker_init
 from mvtrack.stages.feet import target_feet_records
+from mvtrack.viz.session import one_opencv_thread
 
 N_FRAMES = 36
 
@@ -62,3 +65,13 @@ def test_concurrent_front_ends_equal_each_camera_alone(scene: Path) -> None:
                                   np.array([f.point for f in feet]).reshape(-1, 2))
     assert sum(len(r.cameras["cam0"].targets) for r in keep.results) > 0  # people were seen
     assert sum(r.stage_ms["background"] for r in keep.results) > 0.0
+
+
+def test_one_opencv_thread_inside_and_restored_after() -> None:
+    before = cv2.getNumThreads()
+    with one_opencv_thread():
+        assert cv2.getNumThreads() == 1
+    assert cv2.getNumThreads() == before
+    with pytest.raises(KeyError), one_opencv_thread():
+        raise KeyError("x")
+    assert cv2.getNumThreads() == before

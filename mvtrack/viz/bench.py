@@ -22,6 +22,7 @@ from mvtrack.io import Clip
 from mvtrack.params import Params
 from mvtrack.pipeline import STAGES, RunSummary, run
 from mvtrack.viz.outputs import Target, open_outputs
+from mvtrack.viz.session import one_opencv_thread
 from mvtrack.viz.sink import LogOptions, RerunSink, new_recording
 
 __all__ = ["LoggingBench", "bench_logging"]
@@ -103,6 +104,12 @@ def bench_logging(clip: Clip, params: Params, frames: range, out_dir: Path,
                   options: LogOptions | None = None) -> LoggingBench:
     """Time ``frames`` of ``clip`` without sinks, then logging to ``out_dir/bench.rrd``."""
     opts = options or LogOptions()
+    with one_opencv_thread():  # as mvtrack-view runs (record_run)
+        return _bench(clip, params, frames, out_dir, opts)
+
+
+def _bench(clip: Clip, params: Params, frames: range, out_dir: Path,
+           opts: LogOptions) -> LoggingBench:
     start, cpu = time.perf_counter(), time.process_time()
     off = run(clip, params, frames, [])
     off_s = time.perf_counter() - start - off.train_seconds
