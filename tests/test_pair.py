@@ -9,13 +9,14 @@ true H_b_from_a is the composition of the two cameras' ground homographies.
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pytest
 
 from mvtrack.evaluate.pairs import EVAL_SIDES, fov_segment, line_error_px
 from mvtrack.stages.homography import apply_homography
+from mvtrack.stages.markers import Comotion
 from mvtrack.stages.pair import PairConfigs, PairState, pair_init, pair_step, pair_summary
 from mvtrack.stages.targets import CameraTargets
 
@@ -312,3 +313,38 @@ def test_external_links_drive_markers_and_count_as_linked() -> None:
         none_state, res = pair_step(none_state, a, b, PairConfigs(), f, links=[])
         assert res.links == () and res.markers.dropped == ()
     assert none_state.markers.n_dropped == 0
+
+
+def _walkers_seen_twice(frame: int, people: list[int]) -> tuple[CameraTargets, CameraTargets]:
+    """People ``people`` walking on straight paths; B sees A shifted by (200, 10) px, labels
+    of person p: p in A and 100 + p in B."""
+    p = np.asarray(people)
+    feet = np.c_[100.0 + 30 * p + 0.8 * frame, 150.0 + 20 * p + 0.3 * frame * (p % 3)]
+    boxes = np.c_[feet - [5, 30], np.full((len(p), 2), [10, 30])]
+    a = CameraTargets(p.astype(np.int64), feet, np.full(len(p), 30.0), boxes, (640, 480))
+    b = CameraTargets(p.astype(np.int64) + 100, feet + [200, 10], np.full(len(p), 30.0),
+                      boxes + [200, 10, 0, 0], (640, 480))
+    return a, b
+
+
+def test_a_held_swap_does_not_block_the_true_pairing() -> None:
+    """Two people walking alike first fit a swapped pairing; after they leave, nothing can
+    confirm or reject it. People who arrive later follow the true pairing, which a new search
+    holds beside the swap and their held-out candidates confirm, long before the swap would
+    time out (comotion_confirm_frames = 100)."""
+    cfg = PairConfigs()
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    swap = Comotion(np.array([[1.0, 0, 230], [0, 1, 0], [0, 0, 1]]), ((1, 102), (2, 101)), (),
+                    since=0)
+    state = replace(state, hypotheses=(swap,))
+    linked_at = None
+    for f in range(1, 140):
+        a, b = _walkers_seen_twice(f, [4, 5, 6])
+        state, res = pair_step(state, a, b, cfg, f)
+        made = [(x, y) for x, y, ev in res.associations if ev.kind == "comotion"]
+        if made:
+            linked_at = f
+            assert sorted(made) == [(4, 104), (5, 105), (6, 106)]
+            break
+        assert len(state.hypotheses) <= 3
+    assert linked_at is not None and linked_at <= 75

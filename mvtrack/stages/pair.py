@@ -61,6 +61,8 @@ __all__ = [
 SlotKey = tuple[int, str]
 """(index of the camera the line is seen in: 0 = A, 1 = B; side of the other camera)."""
 
+_MAX_HYPOTHESES = 3  # co-motion hypotheses held side by side awaiting held-out evidence
+
 
 @dataclass(frozen=True)
 class PairConfigs:
@@ -144,7 +146,7 @@ class PairState:
     history:        the last frames' (frame, A targets, B targets), for recording events late
     pending:        events not yet recorded in their point set (crossing time not reached)
     candidates:     co-motion bootstrap pool, kept only while no homography is valid
-    hypothesis:     a co-motion hypothesis found but not yet confirmed on later candidates
+    hypotheses:     co-motion hypotheses found but not yet confirmed on later candidates
     """
 
     names: tuple[str, str]
@@ -162,7 +164,7 @@ class PairState:
     history: tuple[tuple[int, CameraTargets, CameraTargets], ...] = ()
     pending: tuple[PendingEvent, ...] = ()
     candidates: Candidates = field(default_factory=Candidates.empty)
-    hypothesis: Comotion | None = None
+    hypotheses: tuple[Comotion, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -384,45 +386,56 @@ def _bootstrap(
     links: PairLinks,
     cfg: PairConfigs,
     frame: int,
-) -> tuple[Candidates, Comotion | None, PairLinks, MarkerState, list[tuple[int, int, FovEvent]]]:
+) -> tuple[Candidates, tuple[Comotion, ...], PairLinks, MarkerState,
+           list[tuple[int, int, FovEvent]]]:
     """Co-motion bootstrap while no homography is valid (see :class:`MarkerConfig`).
 
-    Pools candidate pairs; every ``comotion_every_frames`` searches them. A supported
-    hypothesis is held, and checked at each later search on the candidates pooled since (never
-    used to find it, :func:`comotion_confirm`); a rejected one is replaced by a new search.
-    A confirmed hypothesis links its present target pairs (associations of kind "comotion",
-    side "none"), replacing FOV links of the same targets (one event is weaker evidence than
-    many frames), and adds its inlier candidates to the marker store; the pool is then
-    emptied. A wrong hypothesis (a permutation of people walking together, a fit to straight
-    walks) rarely keeps predicting candidates it was not fitted to.
-    Returns (pool, held hypothesis, links, markers, associations made).
+    Pools candidate pairs; every ``comotion_every_frames`` frames each held hypothesis is
+    checked on the candidates pooled since it was found (never used to find it,
+    :func:`comotion_confirm`), rejected ones are dropped, and a new search of the whole pool
+    adds a hypothesis that pairs the targets differently from every held one (at most
+    ``_MAX_HYPOTHESES``, the oldest dropped). Rivals are held side by side because two people
+    walking alike fit a swapped pairing as well as the true one at first, and neither can be
+    told from the other by support; only people who arrive later follow the true one.
+    The first confirmed hypothesis links its present target pairs (associations of kind
+    "comotion", side "none"), replacing FOV links of the same targets (one event is weaker
+    evidence than many frames), and adds its inlier candidates to the marker store; the pool
+    and the held hypotheses are then emptied.
+    Returns (pool, held hypotheses, links, markers, associations made).
     """
     mcfg = cfg.markers
     if state.homography or mcfg.comotion_min_pairs == 0:
-        return Candidates.empty(), None, links, state.markers, []
+        return Candidates.empty(), (), links, state.markers, []
     pool = candidates_add(state.candidates, cams[0], cams[1], mcfg, frame)
     if frame % mcfg.comotion_every_frames or len(pool) < 4:
-        return pool, state.hypothesis, links, state.markers, []
-    found = None
-    if state.hypothesis is not None:
-        verdict, found = comotion_confirm(pool, state.hypothesis, mcfg, transfer_errors)
-        if verdict == "waiting":
-            return pool, found, links, state.markers, []
-    if found is None:
+        return pool, state.hypotheses, links, state.markers, []
+    held: list[Comotion] = []
+    accepted = None
+    for hypothesis in state.hypotheses:
+        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors)
+        if verdict == "confirmed":
+            accepted = checked
+            break
+        if checked is not None:
+            held.append(checked)
+    if accepted is None:
         rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
         found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
-        if found is not None and mcfg.comotion_confirm_pairs > 0:
-            return pool, found, links, state.markers, []
-    if found is None:
-        return pool, None, links, state.markers, []
+        if found is None or mcfg.comotion_confirm_pairs == 0:
+            accepted = found
+        elif all(set(found.links) != set(h.links) for h in held):
+            held = [*held, found][-_MAX_HYPOTHESES:]
+    if accepted is None:
+        return pool, tuple(held), links, state.markers, []
     present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
     made = []
-    for a_label, b_label in found.links:  # stronger evidence than one FOV event: replaces
+    for a_label, b_label in accepted.links:  # stronger evidence than one FOV event: replaces
         if a_label in present[0] and b_label in present[1] and links.b_of_a.get(a_label) != b_label:
             links = links.add(a_label, b_label, frame)
             made.append((a_label, b_label, FovEvent(frame, state.names[1], b_label, "none",
                                                     "comotion")))
-    return Candidates.empty(), None, links, markers_add(state.markers, found.markers, mcfg), made
+    return (Candidates.empty(), (), links, markers_add(state.markers, accepted.markers, mcfg),
+            made)
 
 
 def _maybe_fit(
@@ -475,9 +488,9 @@ def pair_step(
     base = state.links if links is None else PairLinks.of(links, state.links, frame)
     base = base.prune(set(a.labels.tolist()), set(b.labels.tolist()))
     new_links, made = _associate(events, learned, changed, base, cams, cfg.fov)
-    pool, hyp, new_links, boot_markers, boot = _bootstrap(state, cams, new_links, cfg, frame)
+    pool, held, new_links, boot_markers, boot = _bootstrap(state, cams, new_links, cfg, frame)
     made += boot
-    learned = replace(learned, markers=boot_markers, candidates=pool, hypothesis=hyp)
+    learned = replace(learned, markers=boot_markers, candidates=pool, hypotheses=held)
     made_now = {(x, y) for x, y, _ in made}
     new_links = PairLinks(
         new_links.b_of_a,
