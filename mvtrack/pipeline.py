@@ -220,7 +220,8 @@ class Pipeline:
         return matches, meta, cues
 
     def _camera_steps(self, index: int, images: Mapping[str, np.ndarray],
-                      detections: Mapping[str, Detections], timer: _Timer) -> dict[str, CameraResult]:
+                      detections: Mapping[str, Detections],
+                      timer: _Timer) -> dict[str, CameraResult]:
         """Every camera's front end, the cameras concurrently (one thread each, the first on
         the caller's). Each camera's stages read and write only that camera's state, and OpenCV
         and numpy release the GIL, so on two cores two cameras take about the time of one;
