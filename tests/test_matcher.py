@@ -234,3 +234,23 @@ def test_ambiguous_create_waits_until_one_candidate_is_clearly_nearer() -> None:
 def test_keep_threshold_below_match_threshold_is_rejected() -> None:
     with pytest.raises(ValueError, match="keep_threshold_heights"):
         MatcherConfig(match_threshold_heights=0.5, keep_threshold_heights=0.4)
+
+
+def test_a_wrong_fov_link_from_before_h_breaks_when_h_arrives() -> None:
+    """Two people left A together; the FOV association linked A 1 with the wrong B target (6).
+    When H arrives, H shows 1 belongs with the unlinked 5 and 2 with 6: the never-confirmed
+    link breaks at once (not after break_after_frames), and the pairs are created."""
+    a = targets([1, 2], [(10, 100), (60, 200)])
+    b = targets([5, 6], [(110, 100), (160, 200)])
+    state, before = run([(a, b)] * 3, h=NO_H, assoc={0: [(1, 6)]})
+    assert before[-1].pairs() == ((1, 6),)
+    state, after = run([(a, b)] * (CFG.confirm_frames + 1), state=state)
+    assert after[0].broken[0][:2] == (1, 6) and after[0].pairs() == ()
+    assert set(after[-1].pairs()) == {(1, 5), (2, 6)}
+    # A link H has confirmed keeps the slower rule: a frame in which its B target's feet jump
+    # away while a fresh fragment lies where they should be does not break it.
+    a2 = targets([2], [(60, 200)])
+    good = targets([6], [(160, 200)])
+    glitch = targets([6, 7], [(160, 300), (162, 200)])
+    _, r = run([(a2, good), (a2, glitch)], assoc={0: [(2, 6)]})
+    assert r[1].inconsistent[0][:2] == (2, 6) and r[1].pairs() == ((2, 6),) and not r[1].broken

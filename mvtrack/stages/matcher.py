@@ -10,7 +10,8 @@ so one threshold works at every depth. With it the pair's one-to-one links are
 - confirmed while d < ``keep_threshold_heights`` (looser than the gate that makes links: a
   front end that loses the legs puts one person's two feet up to a body height apart), broken
   after ``break_after_frames`` consecutive inconsistent frames (refine: wrong FOV associations,
-  identity swaps);
+  identity swaps), or at once when a link H never confirmed is inconsistent and one of its
+  targets has a consistent unlinked partner;
 - re-attached at once when a young target is consistent with a target whose partner was lost
   within ``reattach_window_frames`` (occlusion recovery, splits);
 - created by a gated Hungarian assignment of the free targets, once a pair stays assigned for
@@ -249,31 +250,46 @@ def _add_fov(f: _Frame, associations: Sequence[tuple], frame: int,
     """FOV associations between present, unlinked targets become links.
 
     ``gate``: (cost, threshold) when H drives matching: an association H contradicts
-    (d >= threshold) is rejected at once rather than linked and broken later.
+    (d >= threshold) is rejected at once rather than linked and broken later; one it does not
+    is confirmed (this runs after :func:`_refine`, which freed the targets of broken links).
     """
     for assoc in associations:
         a, b = int(assoc[0]), int(assoc[1])
         linked = any(link.a == a or link.b == b for link in f.links)
         if a not in f.index_a or b not in f.index_b or linked:
             continue
-        if gate is not None:
+        if gate is None:
+            f.links.append(Link(a, b, "fov", frame))
+        else:
             d = float(gate[0][f.index_a[a], f.index_b[b]])
             if d >= gate[1]:
                 f.fov_rejected.append((a, b, d))
                 continue
-        f.links.append(Link(a, b, "fov", frame))
+            f.links.append(Link(a, b, "fov", frame, confirmations=1))  # consistent: evidence
+            f.confirmed.append((a, b, d))
         f.fov_added.append((a, b))
 
 
 def _refine(f: _Frame, cost: np.ndarray, cfg: MatcherConfig) -> None:
-    """Confirm consistent links; break those inconsistent for ``break_after_frames``."""
+    """Confirm consistent links; break those inconsistent for ``break_after_frames``, or, if H
+    never confirmed them, at once when one of their targets has a consistent unlinked partner
+    (d below the gate): a wrong FOV association made before H existed."""
+    linked_a = {link.a for link in f.links}
+    linked_b = {link.b for link in f.links}
+    free_rows = [i for label, i in f.index_a.items() if label not in linked_a]
+    free_cols = [j for label, j in f.index_b.items() if label not in linked_b]
     kept = []
     for link in f.links:
-        d = float(cost[f.index_a[link.a], f.index_b[link.b]])
+        i, j = f.index_a[link.a], f.index_b[link.b]
+        d = float(cost[i, j])
         if d < cfg.keep_threshold_heights:
             kept.append(replace(link, confirmations=link.confirmations + 1, bad_streak=0))
             f.confirmed.append((link.a, link.b, d))
-        elif link.bad_streak + 1 >= cfg.break_after_frames:
+            continue
+        rival = link.confirmations == 0 and (
+            (cost[i, free_cols] < cfg.match_threshold_heights).any()
+            or (cost[free_rows, j] < cfg.match_threshold_heights).any())
+        if rival or link.bad_streak + 1 >= cfg.break_after_frames:
             f.broken.append((link.a, link.b, d))
         else:
             kept.append(replace(link, bad_streak=link.bad_streak + 1))
@@ -352,10 +368,11 @@ def match_step(state: MatchState, inputs: MatchInputs,
         cost, a_in_b, b_in_a = transfer_costs(inputs.homography.H_b_from_a, a, b)
     else:
         cost, a_in_b, b_in_a = np.zeros((0, 0)), np.zeros((0, 2)), np.zeros((0, 2))
+    if use_h:
+        _refine(f, cost, cfg)
     _add_fov(f, inputs.associations, frame,
              (cost, cfg.keep_threshold_heights) if use_h else None)
     if use_h:
-        _refine(f, cost, cfg)
         _reattach(f, cost, state, lost, cfg, frame)
         pending, shown = _create(f, cost, state, cfg, frame)
     if isinstance(inputs.homography, HomographyEstimate):
