@@ -13,6 +13,7 @@ from mvtrack.stages.fov import (
     add_event,
     best_match,
     border_distance,
+    border_line,
     crossing_time,
     detect_events,
     estimate_line,
@@ -228,21 +229,56 @@ def test_matches_are_made_only_when_unambiguous() -> None:
     assert event_match(line, ev2, cfg) is None
 
 
-def test_crossers_picked_by_a_homography_refine_the_line() -> None:
-    """Four events; at each a bystander sits near a wrong line. With H the crossers are known."""
+def test_crossers_picked_by_a_homography_refine_the_top_line() -> None:
+    """Top side (feet never reach B's top border: events record where the crosser's feet are
+    once fully inside). Four events; at each a bystander sits near a wrong line. With H the
+    crossers are known and their feet give the line."""
     cfg = FovConfig(min_fov_events=4)
-    slot = new_slot("a", "b", "left", (320, 240))
+    slot = new_slot("a", "b", "top", (320, 240))
     for k in range(4):
         y = 40.0 + 50 * k
         seen = _at([10 + k, 20 + k], [[100.0 + 0.2 * k, y], [150.0, 60.0 + 3 * k]])
         slot = add_event(slot, k, seen, cfg, event_target=k, crosser_foot=(0.0 - 100.0, y))
     shift = np.array([[1.0, 0.0, 200.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # b -> a: x + 200
-    with_h = estimate_line(slot, cfg, 5, shift)
+    with_h = estimate_line(slot, cfg, 5, shift, (320, 240))
     assert with_h.line is not None
     a, _b, c = with_h.line.line
     assert abs(abs(a) - 1) < 1e-3 and abs(-c / a - 100.3) < 0.5
     plain = estimate_line(slot, cfg, 5)  # Hough alone: the compact bystander cluster ties
     assert plain.line is not None and abs(plain.line.line[0]) < 0.99
+
+
+@settings(max_examples=30, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from(["left", "right", "top", "bottom"]))
+def test_border_line_is_the_edge_border_through_h(seed: int, side: str) -> None:
+    rng = np.random.default_rng(seed)
+    H = np.eye(3) + rng.normal(0, [[0.1, 0.1, 30], [0.1, 0.1, 30], [1e-4, 1e-4, 0]])
+    size = (320, 240)
+    t = np.linspace(-0.5, 319.5 if side in ("top", "bottom") else 239.5, 9)
+    fixed = {"left": -0.5, "right": 319.5, "top": -0.5, "bottom": 239.5}[side]
+    border = (np.c_[np.full(9, fixed), t] if side in ("left", "right")
+              else np.c_[t, np.full(9, fixed)])
+    mapped = np.c_[border, np.ones(9)] @ H.T
+    mapped = mapped[:, :2] / mapped[:, 2:]
+    a, b, c = border_line(H, side, size)
+    assert np.hypot(a, b) == pytest.approx(1.0)
+    assert np.abs(mapped @ [a, b] + c).max() < 1e-6 * (1 + np.abs(mapped).max())
+
+
+def test_with_h_the_side_lines_are_the_border_through_h() -> None:
+    """Left side: events give a line 6 px off (noisy feet); with H the line is B's border
+    through it, where the feet of every crosser were."""
+    cfg = FovConfig(min_fov_events=4)
+    slot = new_slot("a", "b", "left", (320, 240))
+    for k in range(5):
+        slot = add_event(slot, k, _at([k], [[206.0, 40.0 + 40 * k]]), cfg, event_target=k)
+    shift = np.array([[1.0, 0.0, 200.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # b -> a: x + 200
+    plain = estimate_line(slot, cfg, 5)
+    assert plain.line is not None and abs(-plain.line.line[2] / plain.line.line[0] - 206) < 1.5
+    with_h = estimate_line(slot, cfg, 5, shift, (320, 240))
+    assert with_h.line is not None
+    assert np.allclose(with_h.line.line, border_line(shift, "left", (320, 240)))
+    assert -with_h.line.line[2] / with_h.line.line[0] == pytest.approx(199.5)
 
 
 def test_a_crosser_flickering_at_the_margin_gives_one_event() -> None:

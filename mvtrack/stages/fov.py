@@ -32,6 +32,7 @@ __all__ = [
     "add_event",
     "best_match",
     "border_distance",
+    "border_line",
     "crossing_time",
     "detect_events",
     "estimate_line",
@@ -421,16 +422,45 @@ def _crosser_points(
     return np.array(out).reshape(-1, 2)
 
 
+def border_line(
+    H_seen_from_edge: np.ndarray, side: str, edge_size: tuple[int, int]
+) -> tuple[float, float, float]:
+    """The edge camera's border ``side`` seen in the other camera through the homography.
+
+    A homography maps lines to lines: the border l_e (l_e . x_e = 0, at -0.5 / W - 0.5 /
+    H - 0.5, :func:`border_distance`) is l = M^-T l_e in the seen camera, x_seen ~ M x_edge.
+    Returned with a^2 + b^2 = 1.
+    """
+    width, height = edge_size
+    edge = {
+        "left": (1.0, 0.0, 0.5),
+        "right": (1.0, 0.0, -(width - 0.5)),
+        "top": (0.0, 1.0, 0.5),
+        "bottom": (0.0, 1.0, -(height - 0.5)),
+    }[side]
+    line = np.linalg.solve(np.asarray(H_seen_from_edge, np.float64).T, np.array(edge))
+    a, b, c = (float(v) for v in line / np.hypot(line[0], line[1]))
+    return a, b, c
+
+
 def estimate_line(
-    slot: FovSlot, cfg: FovConfig, frame: int, H_seen_from_edge: np.ndarray | None = None
+    slot: FovSlot,
+    cfg: FovConfig,
+    frame: int,
+    H_seen_from_edge: np.ndarray | None = None,
+    edge_size: tuple[int, int] | None = None,
 ) -> FovSlot:
     """Re-estimate the slot's line from its accumulator once it has ``min_fov_events`` events.
 
-    With a homography from the edge camera to the seen one (once the pair has learned it), each
-    event's crosser is known (the point nearest the mapped ``crosser_foot``): when at least
-    ``min_fov_events`` events have one (or two or more spanning two body heights), the line is
-    their total-least-squares fit instead of the Hough peak, which bystanders near the line
-    can pull away.
+    With a homography from the edge camera to the seen one (once the pair has learned it):
+    for the left, right and bottom sides the line is the edge camera's border through it
+    (:func:`border_line`; the events are recorded when the crosser's feet are on that border,
+    so both are the same line, and H's comes from every marker rather than a few noisy
+    events). For the top side (feet never reach it: events record the feet when the crosser
+    is fully inside) each event's crosser is known (the point nearest the mapped
+    ``crosser_foot``): when at least ``min_fov_events`` events have one (or two or more
+    spanning two body heights), the line is their total-least-squares fit instead of the Hough
+    peak, which bystanders near the line can pull away.
     """
     if slot.n_events < cfg.min_fov_events or slot.accumulator is None:
         return slot
@@ -439,7 +469,9 @@ def estimate_line(
     if hough is None:
         return slot
     best = hough.line
-    if H_seen_from_edge is not None:
+    if H_seen_from_edge is not None and slot.side != "top" and edge_size is not None:
+        best = np.array(border_line(H_seen_from_edge, slot.side, edge_size))
+    elif H_seen_from_edge is not None:
         crossers = _crosser_points(slot, H_seen_from_edge, cfg)
         span = float(np.ptp(crossers, axis=0).max()) if len(crossers) else 0.0
         heights = np.median(np.concatenate([e.heights for e in slot.events]))

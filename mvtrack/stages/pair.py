@@ -320,7 +320,8 @@ def _learn_lines(
         )
         changed.add(key)
     for key in sorted(changed):
-        slots[key] = fov.estimate_line(slots[key], cfg, frame, _H_seen_from_edge(state, key[0]))
+        slots[key] = fov.estimate_line(slots[key], cfg, frame, _H_seen_from_edge(state, key[0]),
+                                       state.sizes[1 - key[0]])
     state = replace(state, slots=slots, pending=tuple(waiting))
     return state, tuple(events), sorted(changed)
 
@@ -507,7 +508,8 @@ def pair_step(
     if attempt:  # a new homography tells each recorded event's crosser: refine every line
         refit = replace(learned, homography=homography)
         slots = {
-            key: fov.estimate_line(slot, cfg.fov, frame, _H_seen_from_edge(refit, key[0]))
+            key: fov.estimate_line(slot, cfg.fov, frame, _H_seen_from_edge(refit, key[0]),
+                                   refit.sizes[1 - key[0]])
             if slot.line is not None else slot
             for key, slot in learned.slots.items()
         }
