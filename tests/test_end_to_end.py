@@ -1,0 +1,69 @@
+"""The whole pipeline as a user runs it on a generated clip: generate, track, eval.
+
+One 600-frame pair clip at 320x240 (the issue targets' clip length), tracked twice: with the
+default homography matcher and with the FOV-only baseline (``--matcher fov``). Nothing here
+uses ground truth except ``mvtrack eval``. Each bound is a measured value with a margin; the
+issue targets that are not met yet are named where the bound is looser than the target.
+"""
+
+from __future__ import annotations
+
+import json
+from typing import Any
+
+import pytest
+from typer.testing import CliRunner
+
+from mvtrack.cli import app
+
+runner = CliRunner()
+
+
+def _invoke(*args: str) -> None:
+    result = runner.invoke(app, list(args))
+    assert result.exit_code == 0, result.output
+
+
+@pytest.fixture(scope="module")
+def metrics(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any]]:
+    root = tmp_path_factory.mktemp("e2e")
+    clip = root / "pair"
+    _invoke("generate", str(clip), "--scenario", "pair", "--frames", "600", "--size", "320x240")
+    out = {}
+    for matcher in ("homography", "fov"):
+        results = root / matcher
+        _invoke("track", str(clip), "--out", str(results), "--matcher", matcher)
+        _invoke("eval", str(clip), str(results))
+        out[matcher] = json.loads((results / "metrics.json").read_text())
+    return out
+
+
+def test_front_end_finds_people_and_their_feet(metrics: dict[str, dict[str, Any]]) -> None:
+    """Measured: recall 0.961 / 0.942, precision 0.935 / 0.924, feet p90 10.7 / 12.8 px (legs
+    of gray trousers were called shadow before: p90 16.0 / 19.2). Issue 3 asks 0.95 / 0.95."""
+    for cam in metrics["homography"]["cameras"].values():
+        assert cam["recall"] >= 0.92 and cam["precision"] >= 0.9, cam
+        assert cam["foot_error_px_median"] <= 4.0 and cam["foot_error_px_p90"] <= 14.0, cam
+
+
+def test_pair_geometry_is_learned_from_people_walking(
+    metrics: dict[str, dict[str, Any]],
+) -> None:
+    """Issue 4 targets on the pair scenario: a valid H before frame 300 (measured 125),
+    transfer error median <= 3 px and p90 <= 8 px (2.2 / 4.5), every learned FOV line with at
+    least 40 px of its true segment in view within 5 px (4.2 and 1.5)."""
+    (pair,) = metrics["homography"]["pairs"]
+    assert pair["first_valid_H"] is not None and pair["first_valid_H"]["frame"] < 300
+    t = pair["transfer_error_px"]
+    assert t["median"] <= 3.0 and t["p90"] <= 8.0, t
+    lines = [x for x in pair["fov_lines"] if x["learned"] and x["visible_length_px"] >= 40]
+    assert len(lines) >= 2
+    assert all(x["error_px_mean"] <= 5.0 for x in lines), lines
+
+
+def test_homography_matcher_beats_the_fov_baseline(metrics: dict[str, dict[str, Any]]) -> None:
+    """Measured: IDF1 0.782 against 0.520 for FOV lines alone; consistency 0.663. Issue 5 asks
+    0.95 / 0.98: people in both views from frame 0 cannot share a label before H exists (125)."""
+    h, f = metrics["homography"]["labels"], metrics["fov"]["labels"]
+    assert h["idf1_global"] >= f["idf1_global"] + 0.05, (h["idf1_global"], f["idf1_global"])
+    assert h["idf1_global"] >= 0.75 and h["consistency"] >= 0.6, h
