@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -13,8 +14,10 @@ from mvtrack.stages.homography import (
     apply_homography,
     dlt,
     fit_homography,
+    solve_homographies,
     solve_homography,
     transfer_errors,
+    transfer_errors_many,
 )
 
 SIZE = (768, 576)
@@ -202,3 +205,69 @@ def test_solve_homography_degenerate_samples_give_none() -> None:
     square = np.array([[0.0, 0], [1, 0], [1, 1], [0, 1]])
     H = solve_homography(square, square * 2 + 5)
     assert H is not None and np.allclose(apply_homography(H, square), square * 2 + 5)
+
+
+def _samples(rng: np.random.Generator, n: int, k: int = 4) -> tuple[np.ndarray, np.ndarray]:
+    """n samples of k correspondences: mostly through ground-like homographies, some random,
+    collinear, coincident, nearly collinear, or folding across the horizon."""
+    pts_a = rng.uniform([0, 0], SIZE, (n, k, 2))
+    pts_b = np.empty_like(pts_a)
+    for i in range(n):
+        H = _ground_homography(rng)
+        pts_b[i] = apply_homography(H, pts_a[i]) if i % 3 else rng.uniform([0, 0], SIZE, (k, 2))
+    pts_a[0::7, :, 1] = 0.5 * pts_a[0::7, :, 0] + 10  # collinear in A
+    pts_b[1::11] = pts_b[1::11, :1]  # coincident in B
+    pts_a[2::13, 1:, 1] = pts_a[2::13, 0:1, 1] + 1e-3 * np.arange(1, k)  # nearly collinear
+    pts_b[3::17, :, 0] *= -1.0  # a mirrored set: often folds across the horizon
+    return pts_a, pts_b
+
+
+@settings(max_examples=10, deadline=None)
+@given(st.integers(0, 2**32 - 1), st.sampled_from([4, 5, 8]))
+def test_solve_homographies_is_solve_homography_batched(seed: int, k: int) -> None:
+    pts_a, pts_b = _samples(np.random.default_rng(seed), 60, k)
+    Hs, ok = solve_homographies(pts_a, pts_b)
+    assert Hs.shape == (60, 3, 3) and ok.dtype == bool
+    for H, good, a, b in zip(Hs, ok, pts_a, pts_b, strict=True):
+        one = solve_homography(a, b)
+        assert good == (one is not None)
+        if one is not None:
+            assert np.allclose(H, one, rtol=1e-9, atol=1e-12)
+        else:
+            assert np.all(H == 0)
+    assert 0 < ok.sum() < 60
+
+
+def test_solve_homographies_edge_cases() -> None:
+    assert solve_homographies(np.zeros((0, 4, 2)), np.zeros((0, 4, 2)))[1].shape == (0,)
+    H, ok = solve_homographies(np.ones((2, 3, 2)), np.ones((2, 3, 2)))  # too few points
+    assert not ok.any() and np.all(H == 0)
+    square = np.array([[[0.0, 0], [100, 0], [100, 100], [0, 100]]])
+    H, ok = solve_homographies(square, square + [7.0, -3.0])
+    assert ok.tolist() == [True]
+    assert np.allclose(H[0] / H[0, 2, 2], [[1, 0, 7], [0, 1, -3], [0, 0, 1]])
+    with_nan = square.copy()
+    with_nan[0, 0, 0] = np.nan
+    with pytest.raises(np.linalg.LinAlgError):  # non-finite points: as one at a time
+        solve_homography(with_nan[0], square[0])
+    with pytest.raises(np.linalg.LinAlgError):
+        solve_homographies(with_nan, square)
+    with pytest.raises(ValueError, match=r"\(N, n, 2\)"):
+        solve_homographies(np.zeros((2, 4, 2)), np.zeros((2, 5, 2)))
+
+
+def test_transfer_errors_many_is_transfer_errors_per_homography() -> None:
+    rng = np.random.default_rng(5)
+    Hs = np.array([_ground_homography(rng) for _ in range(20)])
+    Hs[3] = [[1, 0, 0], [0, 1, 0], [0, 0, 0]]  # singular: a row of inf
+    Hs[4, 2] = [1e-2, 0, -1.0]  # sends x = 100 to the horizon
+    pts_a, pts_b = _points(rng, 50), _points(rng, 50)
+    pts_a[0] = [100.0, 7.0]
+    errors = transfer_errors_many(Hs, pts_a, pts_b)
+    assert errors.shape == (20, 50)
+    for H, row in zip(Hs, errors, strict=True):
+        ref = transfer_errors(H, pts_a, pts_b)
+        assert np.array_equal(np.isinf(row), np.isinf(ref))
+        assert np.allclose(row[np.isfinite(ref)], ref[np.isfinite(ref)], rtol=1e-9)
+    assert np.isinf(errors[3]).all() and errors[4, 0] > 1e300 and np.isfinite(errors[0]).all()
+    assert transfer_errors_many(np.zeros((0, 3, 3)), pts_a, pts_b).shape == (0, 50)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from mvtrack.params import MarkerConfig
 from mvtrack.stages.homography import solve_homography, transfer_errors
@@ -205,3 +206,151 @@ def test_markers_add_keeps_one_per_cell() -> None:
     out = markers_add(state, ms, MarkerConfig())
     assert len(out.cells) == 1 and out.n_dropped == 3
     assert next(iter(out.cells.values())).frame == 2 and state.cells == {}
+
+
+# --- The batched co-motion search gives the answer of the one-sample-at-a-time reference ----
+# The reference is comotion_search as it was before batching (commit 44f4747), verbatim.
+
+
+def _ref_one_to_one(pairs, n_in, ok):
+    chosen: list[tuple[int, int]] = []
+    for k in np.flatnonzero(ok)[np.argsort(-n_in[ok], kind="stable")]:
+        pa, pb = int(pairs[k, 0]), int(pairs[k, 1])
+        if all(pa != x and pb != y for x, y in chosen):
+            chosen.append((pa, pb))
+    return chosen
+
+
+def _ref_two_link_sample(eligible, pairs, rows_of, rng):
+    if len(eligible) < 2:
+        return None
+    i, j = rng.choice(eligible, size=2, replace=False)
+    if pairs[i, 0] == pairs[j, 0] or pairs[i, 1] == pairs[j, 1]:
+        return None
+    return np.r_[rng.choice(rows_of[i], 2, replace=False), rng.choice(rows_of[j], 2, replace=False)]
+
+
+def _ref_support(pool, H, cfg, errors):
+    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    n_all = np.bincount(inverse, np.ones(len(pool), bool), len(pairs))
+    inlier = errors(H, pool.x_a, pool.x_b) < pool.gates_px(cfg)
+    n_in = np.bincount(inverse, inlier, len(pairs))
+    ok = (n_in >= cfg.comotion_min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+    if ok.sum() < 1:
+        return [], inlier & False
+    chosen = _ref_one_to_one(pairs, n_in, ok)
+    keep = np.isin(inverse, [k for k in range(len(pairs))
+                             if (int(pairs[k, 0]), int(pairs[k, 1])) in chosen])
+    return chosen, inlier & keep
+
+
+def _ref_search(pool, cfg, fit, errors, rng):
+    if len(pool) < 4:
+        return None
+    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+    inverse = inverse.ravel()
+    n_all = np.bincount(inverse, None, len(pairs))
+    rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
+    eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
+    best = None
+    for _ in range(cfg.comotion_iterations):
+        sample = _ref_two_link_sample(eligible, pairs, rows_of, rng)
+        H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
+        if H is None:
+            continue
+        chosen, rows = _ref_support(pool, H, cfg, errors)
+        if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
+            best = (int(rows.sum()), rows)
+    if best is None:
+        return None
+    H = fit(pool.x_a[best[1]], pool.x_b[best[1]])
+    if H is None:
+        return None
+    chosen, rows = _ref_support(pool, H, cfg, errors)
+    if len(chosen) < cfg.comotion_min_pairs:
+        return None
+    markers = tuple(
+        Marker(int(f), int(la), int(lb), (float(xa[0]), float(xa[1])),
+               (float(xb[0]), float(xb[1])), float(h[0]), float(h[1]))
+        for f, (la, lb), xa, xb, h in zip(pool.frame[rows], pool.labels[rows], pool.x_a[rows],
+                                          pool.x_b[rows], pool.heights[rows], strict=True))
+    return Comotion(H, tuple(sorted(chosen)), markers, int(pool.frame.max()))
+
+
+def _scene_pool(kind: str, seed: int) -> Candidates:
+    """Every A x B pair of present targets on marker frames; B sees A's feet through a
+    ground-like H (plus 0.5 px noise), so only the true pairs follow one homography.
+
+    kind: "walks" (people on independent straight paths, some seen by one camera only),
+    "alike" (people side by side with one velocity), "line" (everyone on one line in A: all
+    samples degenerate), "few" (two people, two frames: a tiny pool), "sparse" (people
+    present in few frames: pairs with one or two candidates)."""
+    rng = np.random.default_rng(seed)
+    H = np.array([[0.9, 0.1, 40.0], [-0.05, 1.1, 20.0], [2e-4, 1e-4, 1.0]])
+    n, frames, p_present = {"walks": (6, 20, 0.9), "alike": (4, 20, 1.0), "line": (4, 15, 1.0),
+                            "few": (2, 2, 1.0), "sparse": (5, 20, 0.3)}[kind]
+    start = rng.uniform([60, 60], [260, 200], (n, 2))
+    vel = rng.uniform(-3, 3, (n, 2))
+    if kind == "alike":
+        start[:, 1] = start[0, 1] + 12.0 * np.arange(n)
+        vel[:] = vel[0]
+    if kind == "line":
+        start[:, 1], vel[:, 1] = 150.0, 0.0
+    only_a = rng.random(n) < (0.3 if kind == "walks" else 0.0)
+    height = rng.uniform(30, 70, n)
+    parts = []
+    for f in range(frames):
+        feet_a = start + f * vel
+        homog = np.c_[feet_a, np.ones(n)] @ H.T
+        feet_b = homog[:, :2] / homog[:, 2:] + rng.normal(0, 0.5, (n, 2))
+        in_a = np.flatnonzero(rng.random(n) < p_present)
+        in_b = np.flatnonzero((rng.random(n) < p_present) & ~only_a)
+        ga, gb = (g.ravel() for g in np.meshgrid(in_a, in_b, indexing="ij"))
+        parts.append((np.full(len(ga), 5 * f), np.c_[ga + 1, gb + 101], feet_a[ga], feet_b[gb],
+                      np.c_[height[ga], height[gb] * 1.1]))
+    return Candidates(*(np.concatenate([p[k] for p in parts]) for k in range(5)))
+
+
+def _same(found: Comotion | None, ref: Comotion | None) -> bool:
+    if found is None or ref is None:
+        return found is None and ref is None
+    return (found.links == ref.links and found.markers == ref.markers
+            and found.since == ref.since and np.allclose(found.H_b_from_a, ref.H_b_from_a,
+                                                         rtol=1e-9, atol=1e-12))
+
+
+@pytest.mark.parametrize("kind", ["walks", "alike", "line", "few", "sparse"])
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_batched_comotion_search_matches_the_reference(kind: str, seed: int) -> None:
+    cfg = MarkerConfig(comotion_iterations=300)
+    pool = _scene_pool(kind, seed)
+    rng, ref_rng = np.random.default_rng(seed), np.random.default_rng(seed)
+    found = comotion_search(pool, cfg, solve_homography, transfer_errors, rng)
+    ref = _ref_search(pool, cfg, solve_homography, transfer_errors, ref_rng)
+    assert _same(found, ref)
+    assert rng.bit_generator.state == ref_rng.bit_generator.state  # the same draws
+    # Any other fit is called one sample at a time: the same answer again.
+    each = comotion_search(pool, cfg, _fit, transfer_errors, np.random.default_rng(seed))
+    assert _same(each, ref)
+    if kind == "walks":  # enough people on spread paths: the true pairs are found
+        assert ref is not None and all(b == a + 100 for a, b in ref.links)
+    if kind == "line":  # every sample is collinear in A
+        assert ref is None
+
+
+def test_batched_comotion_search_matches_on_tiny_and_looser_settings() -> None:
+    pool = _scene_pool("walks", 7)
+    for cfg in (MarkerConfig(comotion_iterations=200, comotion_min_support=1,
+                             comotion_min_frac=0.0, comotion_min_pairs=2),
+                MarkerConfig(comotion_iterations=200, comotion_threshold_heights=0.0,
+                             comotion_threshold_px=1.5)):
+        found = comotion_search(pool, cfg, solve_homography, transfer_errors,
+                                np.random.default_rng(3))
+        assert _same(found, _ref_search(pool, cfg, solve_homography, transfer_errors,
+                                        np.random.default_rng(3)))
+    for n in range(6):
+        tiny = Candidates(*(x[:n] for x in (pool.frame, pool.labels, pool.x_a, pool.x_b,
+                                              pool.heights)))
+        assert comotion_search(tiny, MarkerConfig(), solve_homography, transfer_errors,
+                               np.random.default_rng(0)) is None

@@ -26,9 +26,11 @@ __all__ = [
     "dlt",
     "fit_homography",
     "normalizing_transform",
+    "solve_homographies",
     "solve_homography",
     "spread",
     "transfer_errors",
+    "transfer_errors_many",
 ]
 
 _EPS = 1e-12
@@ -199,6 +201,140 @@ def solve_homography(pts_a: np.ndarray, pts_b: np.ndarray) -> np.ndarray | None:
         return None
     H = dlt(pts_a, pts_b)
     return None if _matrix_problem(H, pts_a) else H
+
+
+_NEAR = 1e-6
+"""Relative margin within which :func:`solve_homographies` defers to :func:`solve_homography`."""
+
+
+def _spread_ratios(pts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((N,) ratio, (N,) bool near a rule's threshold) of :func:`spread` over (N, n, 2) sets."""
+    sv = np.linalg.svd(pts - pts.mean(axis=1, keepdims=True), compute_uv=False)
+    sv = sv / np.sqrt(pts.shape[1])
+    big = sv[:, 0] > _EPS
+    ratio = np.where(big, sv[:, 1] / np.where(big, sv[:, 0], 1.0), 0.0)
+    near = (np.abs(ratio - 1e-3) <= _NEAR * 1e-3) | (big & (sv[:, 0] <= 1e3 * _EPS))
+    return ratio, near
+
+
+def _dlt_many(pts_a: np.ndarray, pts_b: np.ndarray) -> np.ndarray:
+    """(N, 3, 3) normalized DLT of (N, n, 2) point sets, each canonical as in :func:`dlt`."""
+    def normalizing(pts: np.ndarray) -> np.ndarray:
+        centroid = pts.mean(axis=1)
+        mean_dist = np.sqrt(((pts - centroid[:, None]) ** 2).sum(axis=2)).mean(axis=1)
+        scale = np.sqrt(2.0) / np.where(mean_dist > _EPS, mean_dist, np.sqrt(2.0))
+        T = np.zeros((len(pts), 3, 3))
+        T[:, 0, 0] = T[:, 1, 1] = scale
+        T[:, :2, 2] = -scale[:, None] * centroid
+        T[:, 2, 2] = 1.0
+        return T
+
+    T_a, T_b = normalizing(pts_a), normalizing(pts_b)
+    ones = np.ones(pts_a.shape[:2] + (1,))
+    xa = np.concatenate([pts_a, ones], axis=2) @ T_a.transpose(0, 2, 1)
+    xb = np.concatenate([pts_b, ones], axis=2) @ T_b.transpose(0, 2, 1)
+    A = np.zeros((len(xa), 2 * xa.shape[1], 9))
+    A[:, 0::2, 3:6] = -xb[:, :, 2:3] * xa
+    A[:, 0::2, 6:9] = xb[:, :, 1:2] * xa
+    A[:, 1::2, 0:3] = xb[:, :, 2:3] * xa
+    A[:, 1::2, 6:9] = -xb[:, :, 0:1] * xa
+    vt = np.linalg.svd(A)[2]
+    H = np.linalg.inv(T_b) @ vt[:, -1].reshape(-1, 3, 3) @ T_a
+    norm = np.sqrt((H**2).sum(axis=(1, 2)))
+    H = H / np.where(norm > _EPS, norm, 1.0)[:, None, None]
+    return np.where(H[:, 2:3, 2:3] < 0, -H, H)
+
+
+def _usable_many(H: np.ndarray, pts_a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """((N,) bool usable, (N,) bool near a rule's threshold): :func:`_matrix_problem` batched.
+
+    ``H`` (N, 3, 3) finite; ``pts_a`` (N, n, 2)."""
+    sv = np.linalg.svd(H, compute_uv=False)
+    regular = sv[:, -1] > 1e-9 * sv[:, 0]
+    near = np.abs(sv[:, -1] - 1e-9 * sv[:, 0]) <= _NEAR * 1e-9 * sv[:, 0]
+    row = H[:, 2]
+    w = pts_a[:, :, 0] * row[:, None, 0] + pts_a[:, :, 1] * row[:, None, 1] + row[:, None, 2]
+    size = (np.abs(pts_a[:, :, 0] * row[:, None, 0]) + np.abs(pts_a[:, :, 1] * row[:, None, 1])
+            + np.abs(row[:, None, 2]))
+    one_side = (w > 0).all(axis=1) | (w < 0).all(axis=1)
+    near |= (np.abs(w) <= _NEAR * size).any(axis=1) | (np.abs(H[:, 2, 2]) <= _NEAR)
+    return regular & one_side, near
+
+
+def solve_homographies(pts_a: np.ndarray, pts_b: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`solve_homography` of N samples at once: ((N, 3, 3) H_b_from_a, (N,) bool ok).
+
+    ``pts_a``, ``pts_b``: (N, n, 2) float64 px, n >= 4 matched points per sample. ``ok[i]`` is
+    whether ``solve_homography(pts_a[i], pts_b[i])`` gives an H, and then ``H[i]`` equals it up
+    to float rounding (rows where ``ok`` is False are zero). The rules are applied batched; a
+    sample within a relative 1e-6 of one of their thresholds (or with non-finite points) is
+    handed to :func:`solve_homography` itself, so float rounding never flips a decision.
+    """
+    pts_a, pts_b = np.asarray(pts_a, np.float64), np.asarray(pts_b, np.float64)
+    if pts_a.ndim != 3 or pts_a.shape[2] != 2 or pts_a.shape != pts_b.shape:
+        raise ValueError(f"pts_a, pts_b must both have shape (N, n, 2), got {pts_a.shape} "
+                         f"and {pts_b.shape}")
+    n = len(pts_a)
+    H, ok = np.zeros((n, 3, 3)), np.zeros(n, bool)
+    if pts_a.shape[1] < 4 or n == 0:
+        return H, ok
+    finite = np.asarray(np.isfinite(pts_a).all(axis=(1, 2)) & np.isfinite(pts_b).all(axis=(1, 2)),
+                        bool)
+    ratio_a, near_a = _spread_ratios(np.where(finite[:, None, None], pts_a, 0.0))
+    ratio_b, near_b = _spread_ratios(np.where(finite[:, None, None], pts_b, 0.0))
+    near = ~finite | near_a | near_b
+    todo = np.flatnonzero(~near & (ratio_a >= 1e-3) & (ratio_b >= 1e-3))
+    if len(todo):
+        H[todo] = _dlt_many(pts_a[todo], pts_b[todo])
+        finite_h = np.asarray(np.isfinite(H[todo]).all(axis=(1, 2)), bool)
+        usable, near_h = _usable_many(np.where(finite_h[:, None, None], H[todo], np.eye(3)),
+                                      pts_a[todo])
+        ok[todo] = finite_h & usable & ~near_h
+        near[todo] = ~finite_h | near_h
+    H[~ok] = 0.0
+    for i in np.flatnonzero(near):
+        solved = solve_homography(pts_a[i], pts_b[i])
+        if solved is not None:
+            H[i], ok[i] = solved, True
+    return H, ok
+
+
+def transfer_errors_many(
+    H_b_from_a: np.ndarray, pts_a: np.ndarray, pts_b: np.ndarray
+) -> np.ndarray:
+    """(N, P) float64: :func:`transfer_errors` of each of N homographies ((N, 3, 3)) over the
+    same P correspondences ((P, 2) each), equal to it up to float rounding. A singular H gives
+    a row of inf."""
+    pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
+    Hs = np.asarray(H_b_from_a, np.float64).reshape(-1, 3, 3)
+    try:
+        inverse = np.linalg.inv(Hs)
+        singular = np.zeros(len(Hs), bool)
+    except np.linalg.LinAlgError:
+        inverse = np.zeros_like(Hs)
+        singular = np.ones(len(Hs), bool)
+        for i, H in enumerate(Hs):
+            try:
+                inverse[i], singular[i] = np.linalg.inv(H), False
+            except np.linalg.LinAlgError:
+                pass
+
+    def moved(H: np.ndarray, src: np.ndarray, dst: np.ndarray) -> np.ndarray:
+        """(N, P) |dst - H src|, inf where H src is at infinity."""
+        hom = H @ np.c_[src, np.ones(len(src))].T
+        w = hom[:, 2]
+        tiny = np.abs(w) < _EPS
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            du = hom[:, 0] / w - dst[:, 0]
+            dv = hom[:, 1] / w - dst[:, 1]
+            out = np.sqrt(du * du + dv * dv)
+        out[tiny | np.isnan(out)] = np.inf
+        return out
+
+    errors = 0.5 * (moved(Hs, pts_a, pts_b) + moved(inverse, pts_b, pts_a))
+    errors = np.nan_to_num(errors, nan=np.inf)
+    errors[singular] = np.inf
+    return errors
 
 
 def _ransac(

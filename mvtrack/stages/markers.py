@@ -20,6 +20,12 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from mvtrack.params import MarkerConfig
+from mvtrack.stages.homography import (
+    solve_homographies,
+    solve_homography,
+    transfer_errors,
+    transfer_errors_many,
+)
 from mvtrack.stages.targets import CameraTargets
 
 __all__ = [
@@ -291,20 +297,54 @@ def _one_to_one(
     return chosen
 
 
-def _two_link_sample(
-    eligible: np.ndarray, pairs: np.ndarray, rows_of: list[np.ndarray], rng: np.random.Generator
-) -> np.ndarray | None:
-    """(4,) candidate rows: two from each of two label pairs that share no label, or None.
+@dataclass(frozen=True)
+class _PairIndex:
+    """The pool's distinct label pairs: pairs (K, 2) int64, sorted; of (P,) int64, each
+    candidate's pair; n (K,) int64, candidates per pair; rows [K arrays], their rows."""
 
-    Sampling whole target pairs (not single candidates) makes a correct sample likely even
-    when most candidates are wrong: it needs two true pairs, not four true candidates.
+    pairs: np.ndarray
+    of: np.ndarray
+    n: np.ndarray
+    rows: list[np.ndarray]
+
+    @classmethod
+    def of_pool(cls, pool: Candidates) -> _PairIndex:
+        pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
+        inverse = inverse.ravel()
+        order = np.argsort(inverse, kind="stable")
+        n = np.bincount(inverse, None, len(pairs))
+        return cls(pairs, inverse, n, np.split(order, np.cumsum(n)[:-1]) if len(n) else [])
+
+
+def _draw_samples(index: _PairIndex, cfg: MarkerConfig, rng: np.random.Generator) -> np.ndarray:
+    """(S, 4) int64 candidate rows of the iterations whose draw gave a sample, in order.
+
+    Two candidates of each of two label pairs that share no label; drawing whole target pairs
+    (not single candidates) makes a correct sample likely even when most candidates are
+    wrong: it needs two true pairs, not four true candidates. The ``rng`` calls are those of
+    ``cfg.comotion_iterations`` draws one after the other (the results depend on nothing else).
     """
+    eligible = np.flatnonzero(index.n >= max(cfg.comotion_min_support, 2))
     if len(eligible) < 2:
-        return None
-    i, j = rng.choice(eligible, size=2, replace=False)
-    if pairs[i, 0] == pairs[j, 0] or pairs[i, 1] == pairs[j, 1]:
-        return None
-    return np.r_[rng.choice(rows_of[i], 2, replace=False), rng.choice(rows_of[j], 2, replace=False)]
+        return np.zeros((0, 4), np.int64)
+    label_a, label_b = index.pairs[:, 0].tolist(), index.pairs[:, 1].tolist()
+    out = np.empty((cfg.comotion_iterations, 4), np.int64)
+    s = 0
+    for _ in range(cfg.comotion_iterations):
+        i, j = rng.choice(eligible, size=2, replace=False).tolist()
+        if label_a[i] == label_a[j] or label_b[i] == label_b[j]:
+            continue
+        out[s, :2] = rng.choice(index.rows[i], 2, replace=False)
+        out[s, 2:] = rng.choice(index.rows[j], 2, replace=False)
+        s += 1
+    return out[:s]
+
+
+def _pair_support(
+    n_in: np.ndarray, n_all: np.ndarray, cfg: MarkerConfig, min_support: int
+) -> np.ndarray:
+    """(..., K) bool: label pairs with ``min_support`` inliers that are mostly inliers."""
+    return (n_in >= min_support) & (n_in >= cfg.comotion_min_frac * n_all)
 
 
 def _support(
@@ -318,17 +358,24 @@ def _support(
     inliers (default ``cfg.comotion_min_support``) and mostly inliers."""
     min_support = cfg.comotion_min_support if min_support is None else min_support
     rows = np.ones(len(pool), bool) if rows is None else rows
-    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    n_all = np.bincount(inverse, rows, len(pairs))
+    index = _PairIndex.of_pool(pool)
     inlier = (errors(H, pool.x_a, pool.x_b) < pool.gates_px(cfg)) & rows
-    n_in = np.bincount(inverse, inlier, len(pairs))
-    ok = (n_in >= min_support) & (n_in >= cfg.comotion_min_frac * n_all)
+    return _chosen_rows(index, inlier, np.bincount(index.of, rows, len(index.pairs)), cfg,
+                        min_support)
+
+
+def _chosen_rows(
+    index: _PairIndex, inlier: np.ndarray, n_all: np.ndarray, cfg: MarkerConfig,
+    min_support: int,
+) -> tuple[list[tuple[int, int]], np.ndarray]:
+    """:func:`_support` from the (P,) bool inlier rows and the (K,) candidates per pair."""
+    n_in = np.bincount(index.of, inlier, len(index.pairs))
+    ok = _pair_support(n_in, n_all, cfg, min_support)
     if ok.sum() < 1:
         return [], inlier & False
-    chosen = _one_to_one(pairs, n_in, ok)
-    keep = np.isin(inverse, [k for k in range(len(pairs))
-                             if (int(pairs[k, 0]), int(pairs[k, 1])) in chosen])
+    chosen = _one_to_one(index.pairs, n_in, ok)
+    keep = np.isin(index.of, [k for k in range(len(index.pairs))
+                              if (int(index.pairs[k, 0]), int(index.pairs[k, 1])) in chosen])
     return chosen, inlier & keep
 
 
@@ -344,6 +391,67 @@ def _as_comotion(pool: Candidates, H: np.ndarray, chosen: list[tuple[int, int]],
     return Comotion(H, tuple(sorted(chosen)), markers, since)
 
 
+def _best_each(
+    pool: Candidates, index: _PairIndex, samples: np.ndarray, cfg: MarkerConfig,
+    fit: Callable[[np.ndarray, np.ndarray], np.ndarray | None],
+    errors: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+) -> np.ndarray | None:
+    """(P,) bool inlier rows of the first best-supported sample, one sample at a time (any
+    ``fit`` and ``errors``), or None when no sample has ``comotion_min_pairs`` pairs."""
+    best: tuple[int, np.ndarray] | None = None
+    for sample in samples:
+        H = fit(pool.x_a[sample], pool.x_b[sample])
+        if H is None:
+            continue
+        chosen, rows = _support(pool, H, cfg, errors)
+        if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
+            best = (int(rows.sum()), rows)
+    return None if best is None else best[1]
+
+
+_CHUNK = 128
+"""Hypotheses whose transfer errors are computed at once in :func:`_best_batched`."""
+
+
+def _best_batched(
+    pool: Candidates, index: _PairIndex, samples: np.ndarray, cfg: MarkerConfig
+) -> np.ndarray | None:
+    """:func:`_best_each` with ``solve_homography`` and ``transfer_errors``, batched: one
+    normalized DLT of all samples, the transfer errors of a chunk of hypotheses over the whole
+    pool at once, per-pair inlier counts with one bincount, and the one-to-one selection only
+    for hypotheses that can reach ``comotion_min_pairs`` pairs and beat the best so far. A
+    hypothesis with an error within a relative 1e-9 of its gate is redone one at a time, so
+    float rounding never changes the answer."""
+    Hs, solved = solve_homographies(pool.x_a[samples], pool.x_b[samples])
+    valid = np.flatnonzero(solved)
+    gates = pool.gates_px(cfg)
+    n_pairs = len(index.pairs)
+    best, best_count = None, -1
+    for start in range(0, len(valid), _CHUNK):
+        chunk = valid[start:start + _CHUNK]
+        err = transfer_errors_many(Hs[chunk], pool.x_a, pool.x_b)
+        inlier = err < gates
+        near = (np.abs(err - gates) <= 1e-9 * gates).any(axis=1)
+        for c in np.flatnonzero(near):
+            H = solve_homography(pool.x_a[samples[chunk[c]]], pool.x_b[samples[chunk[c]]])
+            inlier[c] = (False if H is None else
+                         transfer_errors(H, pool.x_a, pool.x_b) < gates)
+        hit = np.nonzero(inlier)
+        n_in = np.bincount(hit[0] * n_pairs + index.of[hit[1]], None,
+                           len(chunk) * n_pairs).reshape(len(chunk), n_pairs)
+        ok = _pair_support(n_in, index.n, cfg, cfg.comotion_min_support)
+        bound = np.where(ok, n_in, 0).sum(axis=1)
+        for c in np.flatnonzero((ok.sum(axis=1) >= cfg.comotion_min_pairs)
+                                & (bound > best_count)):
+            if bound[c] <= best_count:
+                continue
+            chosen, rows = _chosen_rows(index, inlier[c], index.n, cfg,
+                                        cfg.comotion_min_support)
+            if len(chosen) >= cfg.comotion_min_pairs and rows.sum() > best_count:
+                best, best_count = rows, int(rows.sum())
+    return best
+
+
 def comotion_search(
     pool: Candidates,
     cfg: MarkerConfig,
@@ -357,27 +465,22 @@ def comotion_search(
     candidates of each of two target pairs. ``fit(pts_a, pts_b)`` returns H or None
     (degenerate); ``errors(H, pts_a, pts_b)`` the per-point transfer error in px. None when no
     hypothesis is supported. The hypothesis's ``since`` is the pool's newest frame.
+
+    With ``fit=solve_homography`` and ``errors=transfer_errors`` (what the pair stage passes)
+    the iterations are evaluated batched (:func:`_best_batched`), with the same answer as one
+    at a time for the same ``rng``; other callables are called once per sample.
     """
     if len(pool) < 4:
         return None
-    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    n_all = np.bincount(inverse, None, len(pairs))
-    rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
-    eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
-
-    best: tuple[int, np.ndarray] | None = None
-    for _ in range(cfg.comotion_iterations):
-        sample = _two_link_sample(eligible, pairs, rows_of, rng)
-        H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
-        if H is None:
-            continue
-        chosen, rows = _support(pool, H, cfg, errors)
-        if len(chosen) >= cfg.comotion_min_pairs and (best is None or rows.sum() > best[0]):
-            best = (int(rows.sum()), rows)
+    index = _PairIndex.of_pool(pool)
+    samples = _draw_samples(index, cfg, rng)
+    if fit is solve_homography and errors is transfer_errors:
+        best = _best_batched(pool, index, samples, cfg)
+    else:
+        best = _best_each(pool, index, samples, cfg, fit, errors)
     if best is None:
         return None
-    H = fit(pool.x_a[best[1]], pool.x_b[best[1]])
+    H = fit(pool.x_a[best], pool.x_b[best])
     if H is None:
         return None
     chosen, rows = _support(pool, H, cfg, errors)
