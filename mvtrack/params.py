@@ -91,6 +91,27 @@ class BackgroundConfig(_Checked):
         "proportion above (0 = absolute)",
         0.0,
     )
+    # Far people are small: a camera learns how tall people are at each image row from its
+    # own person-shaped MVOs (SizeModel) and holds a blob to size_area_frac * h^2 where that is
+    # below T_area (a standing person's mask is ~0.3 h^2: 0.15 keeps half a person). Generated
+    # 'crowd' people on the far grass are 17 px tall (area 70-100 px, T_area 100).
+    size_area_frac: float = param(
+        0.15, "T_area where people are small: this fraction of h^2, h the learned person "
+        "height at the blob's bottom row (0 = one T_area for the frame)", 0.0, 10.0,
+    )
+    size_min_area_px: float = param(
+        30.0, "the learned T_area never goes below this many pixels", 1.0
+    )
+    size_min_aspect: float = param(
+        1.5, "size samples: MVOs with height / width at least this (standing people)", 0.0
+    )
+    size_max_aspect: float = param(5.0, "size samples: height / width at most this", 0.0)
+    size_samples: int = param(400, "size samples kept (newest)", 10, 1000000)
+    size_min_samples: int = param(50, "size samples needed before a fit", 3, 1000000)
+    size_min_row_spread_frac: float = param(
+        0.2, "size samples must span this fraction of the frame's rows (5-95 %)", 0.0, 1.0
+    )
+    size_refit_frames: int = param(25, "refit the size line this often", 1, 1000000)
     # T_AOF compares with |mean flow vector| per frame. Generated walkers at 25 fps move
     # 0.2-1.5 px/frame (median 0.7); ghosts measure 0.07-0.25 over a 3-frame gap, PETS ghosts
     # 0.03-0.26 (10-90 %), PETS walkers (7 fps) above 0.38 for 99 %.

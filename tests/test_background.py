@@ -18,6 +18,7 @@ from mvtrack.params import BackgroundConfig
 from mvtrack.stages.background import (
     BackgroundResult,
     BackgroundState,
+    _fit_sizes,
     background_step,
     min_area_at,
     stacked_boxes,
@@ -581,3 +582,53 @@ def test_blob_table_records_the_min_area_it_used() -> None:
     assert r.blobs.min_area_px == pytest.approx(2 * cfg.min_area_px)
     assert np.array_equal(r.blobs.area_ok, r.blobs.area_px > 2 * cfg.min_area_px)
     assert r.blobs.area_ok.any()
+
+
+# ------------------------------------------------------------------------ person-size model
+
+
+def test_size_line_is_robust_to_people_who_lost_their_legs() -> None:
+    rng = np.random.default_rng(2)
+    rows = rng.uniform(40, 230, 200)
+    heights = 0.25 * rows + 5 + rng.normal(0, 1.0, 200)
+    heights[:50] *= 0.6  # a quarter lost their legs to the shadow test
+    cfg = BackgroundConfig()
+    slope, intercept = _fit_sizes(np.c_[rows, heights], 240, cfg)
+    assert slope == pytest.approx(0.25, abs=0.02) and intercept == pytest.approx(5, abs=3)
+    assert _fit_sizes(np.c_[rows, heights][:20], 240, cfg) is None  # too few
+    clustered = np.c_[rng.uniform(100, 120, 100), rng.uniform(30, 35, 100)]
+    assert _fit_sizes(clustered, 240, cfg) is None  # rows too close: no slope to trust
+
+
+def _walker(height: int, rng: np.random.Generator) -> np.ndarray:
+    width = max(3, height // 3)
+    return np.clip(np.array([40, 40, 200]) + rng.normal(0, 25, (height, width, 3)), 0, 255
+                   ).astype(np.uint8)
+
+
+@pytest.mark.parametrize("size_area_frac, far_found", [(0.15, True), (0.0, False)])
+def test_small_far_walker_is_an_mvo_once_the_camera_knows_people_are_small_there(
+        size_area_frac: float, far_found: bool) -> None:
+    """A walker comes towards the camera (feet from row 50 to 118, height 0.3 x row) and
+    teaches the camera how tall people are; then a far walker 12 px tall (area 48 px, below
+    T_area 100) appears at row 40 and is an MVO; with one T_area for the frame it is a ghost."""
+    rng = np.random.default_rng(6)
+    ground = _ground(rng)
+    cfg = dataclasses.replace(CFG, size_area_frac=size_area_frac, size_min_samples=20,
+                              size_refit_frames=5)
+    state = _train(ground, rng, cfg=cfg)
+    for t in range(35):
+        bottom = 50 + 2 * t
+        h = int(0.3 * bottom)
+        frame = _paste(ground, _walker(h, rng), 30 + t, bottom - h)
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+    assert (state.sizes.line is not None) == (size_area_frac > 0)
+    far = _walker(12, rng)
+    for t in range(4):
+        frame = _paste(ground, far, 100 + 3 * t, 40 - 12)
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+    b = r.blobs
+    near_far = b.box_xywh[:, 1] + b.box_xywh[:, 3] < 45
+    assert near_far.sum() == 1
+    assert bool(b.is_mvo[near_far][0]) == far_found
+    assert b.area_px[near_far][0] < b.min_area_px

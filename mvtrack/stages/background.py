@@ -52,7 +52,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import cv2
@@ -67,6 +67,7 @@ __all__ = [
     "BackgroundResult",
     "BackgroundState",
     "BlobTable",
+    "SizeModel",
     "background_step",
     "min_area_at",
     "stacked_boxes",
@@ -98,6 +99,30 @@ class _Model:
 
 
 @dataclass(frozen=True, eq=False)
+class SizeModel:
+    """A person's height in px against the image row of their feet, learned from MVOs.
+
+    Far people are small: one T_area for the whole frame either drops them or lets in noise
+    near the camera. MVO blobs shaped like a standing person (not touching the frame's sides,
+    height / width in [size_min_aspect, size_max_aspect]) give samples (bottom row, height);
+    a robust line height = slope * row + intercept through them (:func:`_fit_sizes`) lowers
+    T_area for a blob to ``size_area_frac`` * (predicted height)^2 where that is smaller.
+
+    samples:  (N, 2) float64 [bottom row (px edge), height px], newest last, read-only
+    line:     (slope, intercept) of the current fit, or None (too few or too clustered samples)
+    """
+
+    samples: np.ndarray = field(default_factory=lambda: _readonly(np.zeros((0, 2))))
+    line: tuple[float, float] | None = None
+
+    def height_at(self, rows: np.ndarray) -> np.ndarray | None:
+        """(K,) predicted person heights in px at the given bottom rows, or None (no fit)."""
+        if self.line is None:
+            return None
+        return self.line[0] * np.asarray(rows, np.float64) + self.line[1]
+
+
+@dataclass(frozen=True, eq=False)
 class BackgroundState:
     """Everything background subtraction carries from one frame to the next.
 
@@ -115,6 +140,7 @@ class BackgroundState:
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
+    sizes:       how tall people are at each image row, learned from this camera's MVOs
     """
 
     modality: str
@@ -124,6 +150,7 @@ class BackgroundState:
     frame_index: int
     mvo_age: np.ndarray | None = None
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
+    sizes: SizeModel = field(default_factory=SizeModel)
 
     @property
     def background(self) -> np.ndarray:
@@ -154,6 +181,8 @@ class BlobTable:
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
     box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
     min_area_px:  float, the T_area this frame size used (:func:`min_area_at`)
+    area_threshold_px: (K,) float64, the T_area each blob was held to: ``min_area_px``, or
+                  lower where the camera's :class:`SizeModel` expects people to be small
     """
 
     label: np.ndarray
@@ -173,6 +202,7 @@ class BlobTable:
     mvo_label: np.ndarray
     box_xywh: np.ndarray
     min_area_px: float = 0.0
+    area_threshold_px: np.ndarray = field(default_factory=lambda: np.zeros(0))
 
     def __len__(self) -> int:
         return len(self.label)
@@ -487,13 +517,28 @@ def min_area_at(shape: tuple[int, ...], cfg: BackgroundConfig) -> float:
     return cfg.min_area_px * max(1.0, size / cfg.min_area_ref_size_px)
 
 
+def _area_thresholds(stats: np.ndarray, sizes: SizeModel, min_area_px: float,
+                     cfg: BackgroundConfig) -> np.ndarray:
+    """(K,) T_area of each blob: ``min_area_px``, lowered to ``size_area_frac`` * h^2 where the
+    size model predicts people of height h at the blob's bottom row (never below
+    ``size_min_area_px``)."""
+    k = stats.shape[0] - 1
+    bottom = stats[1:, cv2.CC_STAT_TOP] + stats[1:, cv2.CC_STAT_HEIGHT]
+    heights = sizes.height_at(bottom)
+    if heights is None or cfg.size_area_frac <= 0:
+        return np.full(k, min_area_px)
+    scaled = cfg.size_area_frac * np.maximum(heights, 0.0) ** 2
+    return np.clip(scaled, min(cfg.size_min_area_px, min_area_px), min_area_px)
+
+
 def _blob_table(
-    stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig, min_area_px: float
+    stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig, min_area_px: float,
+    thresholds: np.ndarray,
 ) -> tuple[BlobTable, np.ndarray]:
     """The blob table and each blob's new MVO age (K,) int64 (0 for ghosts)."""
     k = stats.shape[0] - 1
     area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
-    area_ok = area > min_area_px
+    area_ok = area > thresholds
     strong_ok = ev.max8 > _u8_floor(cfg.t_high)
     flow_ok = np.isnan(ev.mean_flow) | (ev.mean_flow > cfg.min_mean_flow_px)
     changed_ok = (cfg.min_changed_frac > 0) & (ev.changed_frac >= cfg.min_changed_frac)
@@ -526,6 +571,7 @@ def _blob_table(
         mvo_label=mvo_label,
         box_xywh=box,
         min_area_px=min_area_px,
+        area_threshold_px=thresholds,
     )
     return table, age
 
@@ -702,6 +748,52 @@ def _motion(
     return _Motion(flow, changed, factor)
 
 
+def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
+                 cfg: BackgroundConfig, frame_index: int) -> SizeModel:
+    """The model with this frame's person-shaped MVOs added, refitted every
+    ``size_refit_frames`` frames."""
+    if cfg.size_area_frac <= 0:
+        return sizes
+    box = blobs.box_xywh[blobs.is_mvo]
+    height, width = shape[0], shape[1]
+    inside = (box[:, 0] > 0) & (box[:, 1] > 0) & (box[:, 0] + box[:, 2] < width - 1) & (
+        box[:, 1] + box[:, 3] < height - 1)
+    aspect = box[:, 3] / np.maximum(box[:, 2], 1.0)
+    keep = inside & (aspect >= cfg.size_min_aspect) & (aspect <= cfg.size_max_aspect)
+    new = np.c_[box[keep, 1] + box[keep, 3], box[keep, 3]]
+    samples = np.concatenate([sizes.samples, new])[-cfg.size_samples :]
+    line = sizes.line
+    if frame_index % cfg.size_refit_frames == 0:
+        line = _fit_sizes(samples, height, cfg)
+    return SizeModel(_readonly(samples), line)
+
+
+def _fit_sizes(samples: np.ndarray, frame_height: int,
+               cfg: BackgroundConfig) -> tuple[float, float] | None:
+    """Robust line height = slope * row + intercept: least squares, then again on the samples
+    within 2.5 robust sigmas (MAD) of it, twice. None with fewer than ``size_min_samples``
+    samples, rows spread over less than ``size_min_row_spread_frac`` of the frame, or a fit
+    that does not predict positive heights over the sampled rows."""
+    if len(samples) < cfg.size_min_samples:
+        return None
+    rows, heights = samples[:, 0], samples[:, 1]
+    lo, hi = np.percentile(rows, [5, 95])
+    if hi - lo < cfg.size_min_row_spread_frac * frame_height:
+        return None
+    keep = np.ones(len(rows), bool)
+    slope = intercept = 0.0
+    for _ in range(3):
+        slope, intercept = np.polyfit(rows[keep], heights[keep], 1)
+        resid = heights - (slope * rows + intercept)
+        mad = float(np.median(np.abs(resid[keep] - np.median(resid[keep]))))
+        keep = np.abs(resid) <= 2.5 * 1.4826 * max(mad, 0.5)
+        if keep.sum() < cfg.size_min_samples // 2:
+            return None
+    if min(slope * lo + intercept, slope * hi + intercept) <= 0:
+        return None
+    return float(slope), float(intercept)
+
+
 def background_step(
     state: BackgroundState, frame: np.ndarray, cfg: BackgroundConfig
 ) -> tuple[BackgroundState, BackgroundResult]:
@@ -737,7 +829,9 @@ def background_step(
         *_blob_edges(candidate, blob_labels, (planes[2], state.model.v), k, cfg),
         _blob_hold_age(pixels, state.mvo_age, k),
     )
-    blobs, age = _blob_table(stats, evidence, cfg, min_area_at(candidate.shape, cfg))
+    min_area = min_area_at(candidate.shape, cfg)
+    thresholds = _area_thresholds(stats, state.sizes, min_area, cfg)
+    blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     mvo_age = np.zeros(candidate.shape, np.uint16)
@@ -766,5 +860,6 @@ def background_step(
         frame_index=state.frame_index + 1,
         mvo_age=_readonly(mvo_age),
         shared=shared,
+        sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
     )
     return new_state, result
