@@ -121,7 +121,7 @@ def test_static_documents_and_legends(recording: dict[str, Any]) -> None:
 
 def test_blob_values_ride_with_boxes(recording: dict[str, Any]) -> None:
     cols = recording[paths.camera_layer("cam1", "blobs")]["columns"]
-    assert {"area_px", "max_distance", "mean_flow_px", "is_mvo"} <= cols
+    assert {"area_px", "area_threshold_px", "max_distance", "mean_flow_px", "is_mvo"} <= cols
 
 
 def test_metrics_and_events(recording: dict[str, Any]) -> None:

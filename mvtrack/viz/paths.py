@@ -19,7 +19,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     4 ghost shadow (legend: its own AnnotationContext)
     /cameras/{cam}/labels           SegmentationImage: each target's pixels hold its meta id
     /cameras/{cam}/blobs            Boxes2D + AnyValues: candidate blobs, hover shows area_px,
-                                    max_distance, mean_flow_px, is_mvo
+                                    area_threshold_px (T_area at the blob's row), max_distance,
+                                    mean_flow_px, is_mvo
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
                                     label "t{target} m{meta}"
     /cameras/{cam}/feet             Points2D: feet, class id = meta

@@ -393,6 +393,7 @@ class RerunSink:
         boxes[:, :2] += 0.5
         self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo),
                      rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
+                                  area_threshold_px=blobs.area_threshold_px.astype(np.float64),
                                   max_distance=blobs.max_distance.astype(np.float64),
                                   mean_flow_px=blobs.mean_flow_px.astype(np.float64),
                                   is_mvo=blobs.is_mvo.astype(bool)))
