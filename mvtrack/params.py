@@ -479,6 +479,23 @@ class HomographyConfig(_Checked):
     refit_every_frames: int = param(
         50, "re-fit at least this often while new markers arrive", 1, 1000000
     )
+    # Verification of an H in use: targets it projects well inside the other frame should find
+    # a target there. Measured share with a partner within 0.6 heights (600 f, generated):
+    # correct H's 0.80-0.93 (pillar, behind its occluder, 0.57); crowd's wrong co-motion H
+    # (103 px) 0.165, the true H on the same frames 0.72. Below the floor the H is dropped with
+    # its markers and learning starts again.
+    verify_frames: int = param(100, "verification: frames of projections pooled", 1, 1000000)
+    verify_min_expected: int = param(
+        40, "verification: projections pooled before H can be judged", 1, 1000000
+    )
+    verify_min_found_frac: float = param(
+        0.3, "verification: drop H when fewer of its projections find a partner (0 = off)",
+        0.0, 1.0,
+    )
+    verify_gate_heights: float = param(
+        0.6, "verification: a partner is within this symmetric transfer distance (heights)",
+        0.0, 100.0,
+    )
 
     def _check(self) -> None:
         if self.method not in ("robust", "dlt"):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from mvtrack.evaluate.pairs import EVAL_SIDES, fov_segment, line_error_px
-from mvtrack.stages.homography import apply_homography
+from mvtrack.stages.homography import HomographyEstimate, apply_homography
 from mvtrack.stages.markers import Comotion
 from mvtrack.stages.pair import PairConfigs, PairState, pair_init, pair_step, pair_summary
 from mvtrack.stages.targets import CameraTargets
@@ -348,3 +348,30 @@ def test_a_held_swap_does_not_block_the_true_pairing() -> None:
             break
         assert len(state.hypotheses) <= 3
     assert linked_at is not None and linked_at <= 75
+
+
+@pytest.mark.parametrize("shift, kept", [((200.0, 10.0), True), ((230.0, 0.0), False)])
+def test_a_homography_that_predicts_people_where_there_are_none_is_dropped(
+        shift: tuple[float, float], kept: bool) -> None:
+    """B sees A shifted by (200, 10). The true H keeps finding a partner for every projected
+    target; one 30 px off (a body height here) finds none and is dropped, with its markers,
+    once ``verify_min_expected`` projections are pooled; learning then starts over."""
+    cfg = PairConfigs()
+    H = np.array([[1.0, 0, shift[0]], [0, 1, shift[1]], [0, 0, 1]])
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    state = replace(state, homography=HomographyEstimate(H, "dlt", 10, np.ones(10, bool),
+                                                         np.zeros(10), 0.0, 0))
+    dropped_at = None
+    for f in range(1, 30):
+        a, b = _walkers_seen_twice(f, [4, 5, 6])
+        state, res = pair_step(state, a, b, cfg, f)
+        if not res.homography and dropped_at is None:
+            dropped_at = f
+            assert res.homography.reason.startswith("dropped: over")
+            assert res.attempt is res.homography and len(state.markers.cells) == 0
+    if kept:
+        assert dropped_at is None and state.homography
+        assert sum(f for _, f in state.checks) == sum(e for e, _ in state.checks) > 100
+    else:
+        # 3 targets x 2 directions a frame: 40 projections pooled by the 7th frame
+        assert dropped_at == -(-cfg.homography.verify_min_expected // 6)

@@ -45,6 +45,7 @@ from mvtrack.stages.markers import (
     markers_add,
     markers_init,
 )
+from mvtrack.stages.matcher import transfer_costs
 from mvtrack.stages.targets import SIDES, CameraTargets
 
 __all__ = [
@@ -62,6 +63,7 @@ SlotKey = tuple[int, str]
 """(index of the camera the line is seen in: 0 = A, 1 = B; side of the other camera)."""
 
 _MAX_HYPOTHESES = 3  # co-motion hypotheses held side by side awaiting held-out evidence
+_VERIFY_MARGIN_PX = 5.0  # verification: projections this far inside the other frame count
 
 
 @dataclass(frozen=True)
@@ -147,6 +149,8 @@ class PairState:
     pending:        events not yet recorded in their point set (crossing time not reached)
     candidates:     co-motion bootstrap pool, kept only while no homography is valid
     hypotheses:     co-motion hypotheses found but not yet confirmed on later candidates
+    checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
+                    well inside the other camera, how many of them had a target there)
     """
 
     names: tuple[str, str]
@@ -165,6 +169,7 @@ class PairState:
     pending: tuple[PendingEvent, ...] = ()
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
+    checks: tuple[tuple[int, int], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -439,6 +444,43 @@ def _bootstrap(
             made)
 
 
+def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
+           cfg: HomographyConfig) -> tuple[int, int]:
+    """(expected, found): targets fully inside their own frame that H projects at least
+    ``_VERIFY_MARGIN_PX`` inside the other one, and how many of them have a target there within
+    ``verify_gate_heights`` (symmetric transfer distance, :func:`transfer_costs`)."""
+    if not len(a) and not len(b):
+        return 0, 0
+    cost, a_in_b, b_in_a = transfer_costs(H_b_from_a, a, b)
+    expected = found = 0
+    for own, proj, other, near in ((a, a_in_b, b, cost), (b, b_in_a, a, cost.T)):
+        width, height = other.size
+        m = _VERIFY_MARGIN_PX
+        inside = (~own.touches(0.0).any(axis=1) & (proj[:, 0] > m) & (proj[:, 0] < width - m)
+                  & (proj[:, 1] > m) & (proj[:, 1] < height - m))
+        has = near.min(axis=1) < cfg.verify_gate_heights if near.shape[1] else np.zeros(len(own),
+                                                                                        bool)
+        expected += int(inside.sum())
+        found += int((inside & has).sum())
+    return expected, found
+
+
+def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
+            a: CameraTargets, b: CameraTargets, cfg: HomographyConfig
+            ) -> tuple[tuple[tuple[int, int], ...], str]:
+    """This frame's check of a valid H added to the pooled ones, and why H must be dropped
+    ("" while it holds): too few of its projections find a target where it puts them."""
+    if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
+        return (), ""
+    checks = (*state.checks, _check(homography.H_b_from_a, a, b, cfg))[-cfg.verify_frames :]
+    expected = sum(e for e, _ in checks)
+    found = sum(f for _, f in checks)
+    if expected >= cfg.verify_min_expected and found < cfg.verify_min_found_frac * expected:
+        return (), (f"dropped: over {len(checks)} frames H put {expected} targets inside the "
+                    f"other camera and {found} had a target there")
+    return checks, ""
+
+
 def _maybe_fit(
     state: PairState, markers: MarkerState, cfg: HomographyConfig, frame: int
 ) -> tuple[HomographyEstimate | HomographyFailure, HomographyEstimate | HomographyFailure | None]:
@@ -501,6 +543,11 @@ def pair_step(
     markers, marker_result = marker_step(learned.markers, marker_links, a, b, cfg.markers, frame)
     homography, attempt = _maybe_fit(state, markers, cfg.homography, frame)
     fitted = attempt is not None
+    checks, dropped = _verify(state, homography, a, b, cfg.homography)
+    if dropped:  # its markers would fit it again: learning starts over
+        homography = HomographyFailure(dropped, len(markers.cells), frame)
+        markers, new_links = markers_init(state.sizes[0]), PairLinks()
+        attempt, fitted = homography, True
     n_events = state.n_events + len(events)
     first_valid = state.first_valid
     if first_valid is None and homography:
@@ -524,6 +571,7 @@ def pair_step(
         fit_frame=frame if fitted else state.fit_frame,
         n_events=n_events,
         first_valid=first_valid,
+        checks=checks,
     )
     result = PairResult(
         frame=frame,

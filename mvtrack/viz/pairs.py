@@ -194,8 +194,10 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
             sink.event(f"pair {name}: homography estimated from {attempt.n_markers} markers "
                        f"({attempt.method}), quality {attempt.quality_px:.2f} px")
         else:
-            sink.event(f"pair {name}: homography not estimated: {attempt.reason}",
-                       rr.TextLogLevel.DEBUG)
+            dropped = attempt.reason.startswith("dropped")
+            sink.event(f"pair {name}: homography {'' if dropped else 'not estimated: '}"
+                       f"{attempt.reason}",
+                       rr.TextLogLevel.WARN if dropped else rr.TextLogLevel.DEBUG)
     H = _valid_H(pr)
     if H is None:  # nothing to project yet (an empty layer, so views and tests can rely on it)
         for src, dst in ((a, b), (b, a)):
