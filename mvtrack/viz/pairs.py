@@ -215,10 +215,11 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
         mx, my = _NEAR_FRAME_FRAC * w, _NEAR_FRAME_FRAC * h  # far points would zoom the view out
         ok = (proj[:, 0] > -mx) & (proj[:, 0] < w + mx) & (proj[:, 1] > -my) & (proj[:, 1] < h + my)
         proj = proj[ok]
+        seen = set(result.metas[dst].tolist())  # their own target's label already names them
         sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D(
             [to_viewer(r) for r in ring_strips(proj, _CUE_RADIUS_PX)], class_ids=metas[ok],
-            labels=[f"m{m} from {src}" for m in metas[ok].tolist()], radii=1.0,
-            draw_order=9.0))
+            labels=["" if m in seen else f"m{m} from {src}" for m in metas[ok].tolist()],
+            radii=1.0, draw_order=9.0))
     _transfer_error(sink, key, H, result.index)
 
 
