@@ -23,6 +23,7 @@ from mvtrack.params import Params, ParamsError, dump_params, load_params
 
 if TYPE_CHECKING:
     from mvtrack.io import Clip
+    from mvtrack.stages.pair import PairPrior
 
 app = typer.Typer(
     name="mvtrack",
@@ -198,6 +199,29 @@ CamerasOpt = Annotated[
 ]
 
 
+GeometryOpt = Annotated[
+    Path | None,
+    typer.Option("--geometry", help="pairs.json of an earlier run of the same cameras: its "
+                 "homographies and FOV lines are used from the first frame (kept unless they "
+                 "fail verification) instead of being learned again."),
+]
+
+
+def load_priors(geometry: Path | None, opened: Clip) -> dict[tuple[str, str], PairPrior] | None:
+    """The pairs' priors from ``--geometry`` (None without it); a bad file closes the clip and
+    exits with a clear error naming it."""
+    from mvtrack.io.results import read_pairs
+    from mvtrack.pipeline import priors_from
+
+    if geometry is None:
+        return None
+    try:
+        return priors_from(read_pairs(geometry), opened.spec.overlaps, str(geometry))
+    except (OSError, ValueError) as exc:
+        opened.close()
+        raise fail(str(exc)) from None
+
+
 def open_run(clip: Path, params: Path | None, set_: list[str] | None, frames: str | None,
              cameras: str | None) -> tuple[Clip, Params, range]:
     """Open a clip and resolve thresholds (--params, else the clip's mvtrack.toml) and frames."""
@@ -236,6 +260,7 @@ def track(
                      "'fov' (FOV-event associations only, the Khan & Shah baseline); "
                      "same as --set matcher.method=..."),
     ] = None,
+    geometry: GeometryOpt = None,
 ) -> None:
     """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
     from mvtrack.io.results import ResultsWriter
@@ -246,10 +271,11 @@ def track(
         set_ = [*(set_ or []), f"matcher.method={matcher}"]
     with user_errors():
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
+        priors = load_priors(geometry, opened)
     with opened:
         writer = ResultsWriter(out_dir, mask_every=mask_every)
         with progress_bar("tracking") as update:
-            summary = run(opened, resolved, rng, [writer], progress=update)
+            summary = run(opened, resolved, rng, [writer], progress=update, priors=priors)
         writer.close(run_info(opened.spec, resolved, rng, summary), summary.pairs)
         for warning in opened.warnings[len(opened.spec.warnings):]:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)

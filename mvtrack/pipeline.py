@@ -21,6 +21,7 @@ from typing import Any, Protocol
 import numpy as np
 
 from mvtrack.io import CameraSpec, Clip, Detections
+from mvtrack.io.results import LearnedPair
 from mvtrack.params import Params
 from mvtrack.stages.background import (
     BackgroundResult,
@@ -42,6 +43,7 @@ from mvtrack.stages.matcher import MatchInputs, MatchResult, match_init, match_s
 from mvtrack.stages.meta import Edge, MetaInputs, MetaResult, MetaState, meta_init, meta_step
 from mvtrack.stages.pair import (
     PairConfigs,
+    PairPrior,
     PairResult,
     pair_init,
     pair_step,
@@ -158,7 +160,8 @@ class Pipeline:
 
     def __init__(self, cameras: Sequence[CameraSpec], overlaps: Sequence[tuple[str, str]],
                  params: Params, backgrounds: Mapping[str, BackgroundState],
-                 camera_step: CameraStep | None = None) -> None:
+                 camera_step: CameraStep | None = None,
+                 priors: Mapping[tuple[str, str], PairPrior] | None = None) -> None:
         self.cameras = tuple(cameras)
         self.params = params
         self._replay = camera_step
@@ -168,8 +171,8 @@ class Pipeline:
         }
         size = {c.name: c.size for c in self.cameras}
         self._pairs = {
-            (a, b): pair_init((a, b), (size[a], size[b])) for a, b in overlaps
-            if a in size and b in size
+            (a, b): pair_init((a, b), (size[a], size[b]), (priors or {}).get((a, b)))
+            for a, b in overlaps if a in size and b in size
         }
         self._matchers = {pair: match_init(pair) for pair in self._pairs}
         self._metas: MetaState = meta_init()
@@ -301,9 +304,32 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
     }
 
 
+def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],
+                source: str) -> dict[tuple[str, str], PairPrior]:
+    """Each overlap's :class:`PairPrior` from an earlier run's `pairs.json` (read by
+    :func:`~mvtrack.io.results.read_pairs`; a pair stored as (B, A) is turned around). Raises
+    ValueError naming ``source`` for a pair the clip does not declare."""
+    priors = {}
+    for k, pair in enumerate(learned):
+        a, b = pair.cameras
+        H = pair.H_b_from_a
+        if (a, b) not in overlaps and (b, a) in overlaps:
+            a, b = b, a
+            H = None if H is None else np.linalg.inv(H)
+        elif (a, b) not in overlaps:
+            raise ValueError(f"{source}: pair {k} {pair.cameras} is not an overlap of this clip "
+                             f"(overlaps: {list(overlaps)})")
+        lines = tuple((seen, side, line, events) for seen, _, side, line, events in pair.lines)
+        priors[a, b] = PairPrior(H, pair.markers, lines)
+    return priors
+
+
 def run(clip: Clip, params: Params, frames: range, sinks: Sequence[Sink],
-        progress: Callable[[int, int], None] | None = None) -> RunSummary:
+        progress: Callable[[int, int], None] | None = None,
+        priors: Mapping[tuple[str, str], PairPrior] | None = None) -> RunSummary:
     """Run the pipeline over ``frames`` of ``clip``, handing each result to every sink.
+
+    ``priors``: geometry learned earlier for some pairs (:func:`priors_from`).
 
     Ctrl-C stops the loop cleanly: the summary says ``interrupted`` and the sinks keep what
     they received (the caller closes them).
@@ -311,7 +337,7 @@ def run(clip: Clip, params: Params, frames: range, sinks: Sequence[Sink],
     summary = RunSummary()
     start = time.perf_counter()
     pipeline = Pipeline(clip.spec.cameras, clip.spec.overlaps, params,
-                        train_backgrounds(clip, frames, params))
+                        train_backgrounds(clip, frames, params), priors=priors)
     summary.train_seconds = time.perf_counter() - start
     try:
         read_start = time.perf_counter()

@@ -20,8 +20,8 @@ import cv2
 import numpy as np
 
 __all__ = [
-    "CUES_HEADER", "TRACKS_HEADER", "CueRows", "ResultsWriter", "TrackRows", "read_cues",
-    "read_tracks",
+    "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "TrackRows",
+    "read_cues", "read_pairs", "read_tracks",
 ]
 
 TRACKS_HEADER = (
@@ -160,3 +160,61 @@ def read_cues(path: Path) -> CueRows:
         frame=num[:, 0], meta=num[:, 1], camera=np.array([r[2] for r in rows], dtype=str),
         expected=num[:, 2] != 0, seen=num[:, 3] != 0,
     )
+
+
+@dataclass(frozen=True)
+class LearnedPair:
+    """One pair's geometry as an earlier run learned it (an object of `pairs.json`).
+
+    cameras: (A, B); H_b_from_a: (3, 3) float64 or None; markers: markers behind H;
+    lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line
+    """
+
+    cameras: tuple[str, str]
+    H_b_from_a: np.ndarray | None
+    markers: int
+    lines: tuple[tuple[str, str, str, tuple[float, float, float], int], ...]
+
+
+_SIDES = ("left", "right", "top", "bottom")
+
+
+def read_pairs(path: Path) -> list[LearnedPair]:
+    """Read a `pairs.json` (FORMATS.md); errors name the file, the pair and the key."""
+    path = Path(path)
+    if not path.is_file():
+        raise FileNotFoundError(f"{path}: no such pairs.json (written by `mvtrack track`)")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}:{exc.lineno}: not JSON ({exc.msg})") from None
+    if not isinstance(data, list):
+        raise ValueError(f"{path}: expected a list of pair objects, got {type(data).__name__}")
+    return [_learned_pair(path, k, obj) for k, obj in enumerate(data)]
+
+
+def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
+    where = f"{path}: pair {k}"
+    try:
+        cams = obj["cameras"]
+        if not (isinstance(cams, list) and len(cams) == 2
+                and all(isinstance(c, str) for c in cams)):
+            raise ValueError(f"{where}: 'cameras' must be two camera names, got {cams!r}")
+        H = None if obj["H"] is None else np.asarray(obj["H"], np.float64)
+        if H is not None and (H.shape != (3, 3) or not np.all(np.isfinite(H))):
+            raise ValueError(f"{where}: 'H' must be a finite 3x3 matrix or null")
+        lines = []
+        for j, line in enumerate(obj.get("fov_lines", [])):
+            coeffs = tuple(float(v) for v in line["line"])
+            if len(coeffs) != 3 or line["side"] not in _SIDES:
+                raise ValueError(f"{where}: fov_lines[{j}] needs 'line' [a, b, c] and a side "
+                                 f"in {_SIDES}")
+            lines.append((str(line["seen_in"]), str(line["edge_of"]), str(line["side"]),
+                          (coeffs[0], coeffs[1], coeffs[2]), int(line["events"])))
+        return LearnedPair((cams[0], cams[1]), H, int(obj.get("markers", 0)), tuple(lines))
+    except KeyError as exc:
+        raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
+    except (TypeError, ValueError) as exc:
+        if str(exc).startswith(str(path)):
+            raise
+        raise ValueError(f"{where}: {exc}") from None

@@ -51,6 +51,7 @@ from mvtrack.stages.targets import SIDES, CameraTargets
 __all__ = [
     "PairConfigs",
     "PairLinks",
+    "PairPrior",
     "PairResult",
     "PairState",
     "PendingEvent",
@@ -151,6 +152,8 @@ class PairState:
     hypotheses:     co-motion hypotheses found but not yet confirmed on later candidates
     checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
                     well inside the other camera, how many of them had a target there)
+    fixed:          H came from a :class:`PairPrior`: it is not re-fitted (until verification
+                    drops it)
     """
 
     names: tuple[str, str]
@@ -170,6 +173,7 @@ class PairState:
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
     checks: tuple[tuple[int, int], ...] = ()
+    fixed: bool = False
 
 
 @dataclass(frozen=True)
@@ -196,13 +200,40 @@ class PairResult:
     attempt: HomographyEstimate | HomographyFailure | None
 
 
-def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, int]]) -> PairState:
-    """The empty state of pair (A, B) = ``names`` with frame sizes (width, height)."""
+@dataclass(frozen=True)
+class PairPrior:
+    """Geometry learned earlier for the same two static cameras (``mvtrack track --geometry``).
+
+    H_b_from_a: (3, 3) or None; markers: how many markers it came from; lines: (seen_in, side,
+    (a, b, c), events) per FOV line
+    """
+
+    H_b_from_a: np.ndarray | None
+    markers: int = 0
+    lines: tuple[tuple[str, str, tuple[float, float, float], int], ...] = ()
+
+
+def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, int]],
+              prior: PairPrior | None = None) -> PairState:
+    """The empty state of pair (A, B) = ``names`` with frame sizes (width, height).
+
+    With a ``prior``, its H is in use from the first frame and kept (no re-fits) unless it
+    fails its verification (:func:`_verify`), and its FOV lines are known from the start.
+    """
     slots = {
         (i, side): fov.new_slot(names[i], names[1 - i], side, sizes[i])
         for i in (0, 1)
         for side in SIDES
     }
+    homography: HomographyEstimate | HomographyFailure = HomographyFailure("no markers yet")
+    if prior is not None:
+        for seen_in, side, line, events in prior.lines:
+            i = names.index(seen_in)
+            slots[i, side] = replace(slots[i, side], line=fov.FovLine(
+                seen_in, names[1 - i], side, line, events, -1))
+        if prior.H_b_from_a is not None:
+            homography = HomographyEstimate(prior.H_b_from_a, "loaded", prior.markers,
+                                            np.zeros(0, bool), np.zeros(0), float("nan"))
     return PairState(
         names=names,
         sizes=sizes,
@@ -210,7 +241,8 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
         slots=slots,
         links=PairLinks(),
         markers=markers_init(sizes[0]),
-        homography=HomographyFailure("no markers yet"),
+        homography=homography,
+        fixed=isinstance(homography, HomographyEstimate),
     )
 
 
@@ -541,7 +573,15 @@ def pair_step(
     )
     marker_links = new_links.pairs() if links is None else base.pairs()
     markers, marker_result = marker_step(learned.markers, marker_links, a, b, cfg.markers, frame)
-    homography, attempt = _maybe_fit(state, markers, cfg.homography, frame)
+    homography, attempt = (state.homography, None) if state.fixed else _maybe_fit(
+        state, markers, cfg.homography, frame)
+    if isinstance(homography, HomographyEstimate) and homography.from_frame < 0:
+        homography = replace(homography, from_frame=frame)  # a prior: in use from now
+    if any(s.line is not None and s.line.from_frame < 0 for s in learned.slots.values()):
+        learned = replace(learned, slots={  # a prior's lines: in use from now
+            k: replace(s, line=replace(s.line, from_frame=frame))
+            if s.line is not None and s.line.from_frame < 0 else s
+            for k, s in learned.slots.items()})
     fitted = attempt is not None
     checks, dropped = _verify(state, homography, a, b, cfg.homography)
     if dropped:  # its markers would fit it again: learning starts over
@@ -572,6 +612,7 @@ def pair_step(
         n_events=n_events,
         first_valid=first_valid,
         checks=checks,
+        fixed=state.fixed and not dropped,
     )
     result = PairResult(
         frame=frame,

@@ -21,10 +21,12 @@ import typer
 from mvtrack.cli import (
     CamerasOpt,
     FramesOpt,
+    GeometryOpt,
     ParamsOpt,
     SetOpt,
     err,
     fail,
+    load_priors,
     open_run,
     out,
     progress_bar,
@@ -89,12 +91,15 @@ def view(
         help="After the run, write a PNG of the saved recording (headless viewer).")] = None,
     screenshot_frame: Annotated[int | None, typer.Option(
         help="Clip frame of the screenshot (default: the last).")] = None,
+    geometry: GeometryOpt = None,
 ) -> None:
     """Run the pipeline on CLIP and show every intermediate in Rerun's viewer."""
     options = _options(lossless, jpeg_quality, background_every)
     target = _target(save, no_viewer, serve, bind, port, web_port)
     if screenshot is not None and save is None:
         raise fail("--screenshot needs --save FILE.rrd")
+    if watch is not None and geometry is not None:
+        raise fail("--geometry cannot be combined with --watch yet")
     if watch is not None:
         from mvtrack.viz.watch import WatchConfig, watch_loop
 
@@ -108,7 +113,8 @@ def view(
         return
     previous = signal.signal(signal.SIGTERM, _raise_interrupt)  # SIGTERM acts like Ctrl-C
     try:
-        summary = _run_once(clip, params, set_, frames, cameras, layout, target, options)
+        summary = _run_once(clip, params, set_, frames, cameras, layout, target, options,
+                            geometry)
     finally:
         signal.signal(signal.SIGTERM, previous)
     if screenshot is not None and save is not None:
@@ -118,14 +124,15 @@ def view(
 
 
 def _run_once(clip: Path, params: Path | None, set_: list[str] | None, frames: str | None,
-              cameras: str | None, layout: str, target: Target, options: LogOptions
-              ) -> RunSummary:
+              cameras: str | None, layout: str, target: Target, options: LogOptions,
+              geometry: Path | None = None) -> RunSummary:
     from mvtrack.viz.outputs import open_outputs
     from mvtrack.viz.session import layout_for, record_run
     from mvtrack.viz.sink import new_recording
 
     with user_errors():
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
+    priors = load_priors(geometry, opened)
     with opened:
         names = [c.name for c in opened.spec.cameras]
         try:
@@ -141,7 +148,8 @@ def _run_once(clip: Path, params: Path | None, set_: list[str] | None, frames: s
             if outputs.url:
                 out.print(f"web viewer: {outputs.url}", highlight=False)
             with progress_bar("tracking") as update:
-                _, summary = record_run(opened, resolved, rng, rec, options, progress=update)
+                _, summary = record_run(opened, resolved, rng, rec, options, progress=update,
+                                        priors=priors)
             outputs.close()
             _report(summary, len(names), target)
             _keep_serving(outputs)

@@ -8,7 +8,7 @@ Used by ``mvtrack-view``, ``--watch`` and the logging benchmark.
 from __future__ import annotations
 
 import contextlib
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 
 import cv2
@@ -18,6 +18,7 @@ import rerun.blueprint as rrb
 from mvtrack.io import Clip, read_truth
 from mvtrack.params import Params
 from mvtrack.pipeline import RunSummary, run
+from mvtrack.stages.pair import PairPrior
 from mvtrack.viz.sink import LogOptions, RerunSink
 
 __all__ = ["layout_for", "one_opencv_thread", "record_run", "summary_figures"]
@@ -63,9 +64,12 @@ def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
     return figures
 
 
-def record_run(clip: Clip, params: Params, frames: range, rec: rr.RecordingStream,
-               options: LogOptions | None = None,
-               progress: Callable[[int, int], None] | None = None) -> tuple[RerunSink, RunSummary]:
+def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keyword options)
+    clip: Clip, params: Params, frames: range, rec: rr.RecordingStream,
+    options: LogOptions | None = None, *,
+    progress: Callable[[int, int], None] | None = None,
+    priors: Mapping[tuple[str, str], PairPrior] | None = None,
+) -> tuple[RerunSink, RunSummary]:
     """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks).
 
     Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
@@ -77,7 +81,7 @@ def record_run(clip: Clip, params: Params, frames: range, rec: rr.RecordingStrea
     sink = RerunSink(rec, clip.spec, params, options, truth=truth, frames=frames)
     try:
         with one_opencv_thread():
-            summary = run(clip, params, frames, [sink], progress=progress)
+            summary = run(clip, params, frames, [sink], progress=progress, priors=priors)
         if summary.interrupted:
             sink.warn(f"interrupted after {summary.frames} frames")
         sink.log_summary(summary_figures(sink, summary))
