@@ -207,16 +207,19 @@ GeometryOpt = Annotated[
 ]
 
 
-def load_priors(geometry: Path | None, opened: Clip) -> dict[tuple[str, str], PairPrior] | None:
+def load_priors(geometry: Path | None, opened: Clip,
+                subset: bool = False) -> dict[tuple[str, str], PairPrior] | None:
     """The pairs' priors from ``--geometry`` (None without it); a bad file closes the clip and
-    exits with a clear error naming it."""
+    exits with a clear error naming it. ``subset``: only some cameras are in use (--cameras),
+    so pairs with the others are skipped rather than refused."""
     from mvtrack.io.results import read_pairs
     from mvtrack.pipeline import priors_from
 
     if geometry is None:
         return None
     try:
-        return priors_from(read_pairs(geometry), opened.spec.overlaps, str(geometry))
+        in_use = [c.name for c in opened.spec.cameras] if subset else None
+        return priors_from(read_pairs(geometry), opened.spec.overlaps, str(geometry), in_use)
     except (OSError, ValueError) as exc:
         opened.close()
         raise fail(str(exc)) from None
@@ -271,7 +274,7 @@ def track(
         set_ = [*(set_ or []), f"matcher.method={matcher}"]
     with user_errors():
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
-        priors = load_priors(geometry, opened)
+        priors = load_priors(geometry, opened, subset=cameras is not None)
     with opened:
         writer = ResultsWriter(out_dir, mask_every=mask_every)
         with progress_bar("tracking") as update:

@@ -305,12 +305,16 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],
-                source: str) -> dict[tuple[str, str], PairPrior]:
+                source: str, cameras: Sequence[str] | None = None,
+                ) -> dict[tuple[str, str], PairPrior]:
     """Each overlap's :class:`PairPrior` from an earlier run's `pairs.json` (read by
-    :func:`~mvtrack.io.results.read_pairs`; a pair stored as (B, A) is turned around). Raises
+    :func:`~mvtrack.io.results.read_pairs`; a pair stored as (B, A) is turned around). Pairs
+    with a camera outside ``cameras`` (the cameras in use, when given) are skipped. Raises
     ValueError naming ``source`` for a pair the clip does not declare."""
     priors = {}
     for k, pair in enumerate(learned):
+        if cameras is not None and not set(pair.cameras) <= set(cameras):
+            continue
         a, b = pair.cameras
         H = pair.H_b_from_a
         if (a, b) not in overlaps and (b, a) in overlaps:

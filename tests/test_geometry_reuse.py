@@ -103,3 +103,17 @@ def test_the_viewer_takes_the_geometry_too(runs: dict, tmp_path: Path) -> None:
     both = runner.invoke(view_app, [str(runs["clip"]), "--watch", str(bad), "--geometry",
                                     str(runs["learned"])])
     assert both.exit_code == 2 and "--watch" in both.output
+
+
+def test_pairs_of_cameras_left_out_are_skipped() -> None:
+    """`--cameras a,b` on a three-camera clip: pairs.json's pairs with the third are ignored,
+    a pair the clip does not declare between cameras in use is still an error."""
+    from mvtrack.io.results import LearnedPair
+    from mvtrack.pipeline import priors_from
+
+    pairs = [LearnedPair(("cam0", "cam1"), np.eye(3), 10, ()),
+             LearnedPair(("cam1", "cam2"), np.eye(3), 10, ())]
+    priors = priors_from(pairs, [("cam0", "cam1")], "p.json", ["cam0", "cam1"])
+    assert list(priors) == [("cam0", "cam1")]
+    with pytest.raises(ValueError, match=r"p\.json: pair 1"):
+        priors_from(pairs, [("cam0", "cam1")], "p.json", ["cam0", "cam1", "cam2"])

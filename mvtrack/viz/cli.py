@@ -132,7 +132,7 @@ def _run_once(clip: Path, params: Path | None, set_: list[str] | None, frames: s
 
     with user_errors():
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
-    priors = load_priors(geometry, opened)
+    priors = load_priors(geometry, opened, subset=cameras is not None)
     with opened:
         names = [c.name for c in opened.spec.cameras]
         try:
