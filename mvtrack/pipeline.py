@@ -324,6 +324,9 @@ def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, st
             raise ValueError(f"{source}: pair {k} {pair.cameras} is not an overlap of this clip "
                              f"(overlaps: {list(overlaps)})")
         lines = tuple((seen, side, line, events) for seen, _, side, line, events in pair.lines)
+        if any(seen not in (a, b) for seen, *_ in lines):
+            raise ValueError(f"{source}: pair {k}: a FOV line is seen in a camera that is not "
+                             f"{a} or {b}")
         priors[a, b] = PairPrior(H, pair.markers, lines)
     return priors
 

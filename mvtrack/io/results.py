@@ -195,26 +195,30 @@ def read_pairs(path: Path) -> list[LearnedPair]:
 
 def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     where = f"{path}: pair {k}"
+    if not isinstance(obj, dict):
+        raise ValueError(f"{where}: expected an object, got {type(obj).__name__}")
+    for key in ("cameras", "H"):
+        if key not in obj:
+            raise ValueError(f"{where}: missing key {key!r}")
+    cams = obj["cameras"]
+    if not (isinstance(cams, list) and len(cams) == 2 and all(isinstance(c, str) for c in cams)):
+        raise ValueError(f"{where}: 'cameras' must be two camera names, got {cams!r}")
     try:
-        cams = obj["cameras"]
-        if not (isinstance(cams, list) and len(cams) == 2
-                and all(isinstance(c, str) for c in cams)):
-            raise ValueError(f"{where}: 'cameras' must be two camera names, got {cams!r}")
         H = None if obj["H"] is None else np.asarray(obj["H"], np.float64)
-        if H is not None and (H.shape != (3, 3) or not np.all(np.isfinite(H))):
-            raise ValueError(f"{where}: 'H' must be a finite 3x3 matrix or null")
-        lines = []
-        for j, line in enumerate(obj.get("fov_lines", [])):
+    except (TypeError, ValueError):
+        H = np.full((0, 0), np.nan)
+    if H is not None and (H.shape != (3, 3) or not np.all(np.isfinite(H))):
+        raise ValueError(f"{where}: 'H' must be a finite 3x3 matrix or null")
+    lines = []
+    for j, line in enumerate(obj.get("fov_lines", [])):
+        try:
             coeffs = tuple(float(v) for v in line["line"])
-            if len(coeffs) != 3 or line["side"] not in _SIDES:
-                raise ValueError(f"{where}: fov_lines[{j}] needs 'line' [a, b, c] and a side "
-                                 f"in {_SIDES}")
-            lines.append((str(line["seen_in"]), str(line["edge_of"]), str(line["side"]),
-                          (coeffs[0], coeffs[1], coeffs[2]), int(line["events"])))
-        return LearnedPair((cams[0], cams[1]), H, int(obj.get("markers", 0)), tuple(lines))
-    except KeyError as exc:
-        raise ValueError(f"{where}: missing key {exc.args[0]!r}") from None
-    except (TypeError, ValueError) as exc:
-        if str(exc).startswith(str(path)):
-            raise
-        raise ValueError(f"{where}: {exc}") from None
+            entry = (str(line["seen_in"]), str(line["edge_of"]), str(line["side"]),
+                     int(line["events"]))
+        except (KeyError, TypeError, ValueError):
+            coeffs, entry = (), ("", "", "", 0)
+        if len(coeffs) != 3 or entry[2] not in _SIDES:
+            raise ValueError(f"{where}: fov_lines[{j}] needs seen_in, edge_of, side (one of "
+                             f"{_SIDES}), line [a, b, c] and events")
+        lines.append((entry[0], entry[1], entry[2], (coeffs[0], coeffs[1], coeffs[2]), entry[3]))
+    return LearnedPair((cams[0], cams[1]), H, int(obj.get("markers", 0)), tuple(lines))

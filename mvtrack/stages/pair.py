@@ -65,6 +65,7 @@ SlotKey = tuple[int, str]
 
 _MAX_HYPOTHESES = 3  # co-motion hypotheses held side by side awaiting held-out evidence
 _VERIFY_MARGIN_PX = 5.0  # verification: projections this far inside the other frame count
+_PRIOR = "loaded"  # HomographyEstimate.method of a PairPrior's H: kept, never re-fitted
 
 
 @dataclass(frozen=True)
@@ -152,8 +153,6 @@ class PairState:
     hypotheses:     co-motion hypotheses found but not yet confirmed on later candidates
     checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
                     well inside the other camera, how many of them had a target there)
-    fixed:          H came from a :class:`PairPrior`: it is not re-fitted (until verification
-                    drops it)
     """
 
     names: tuple[str, str]
@@ -173,7 +172,6 @@ class PairState:
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
     checks: tuple[tuple[int, int], ...] = ()
-    fixed: bool = False
 
 
 @dataclass(frozen=True)
@@ -217,8 +215,9 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
               prior: PairPrior | None = None) -> PairState:
     """The empty state of pair (A, B) = ``names`` with frame sizes (width, height).
 
-    With a ``prior``, its H is in use from the first frame and kept (no re-fits) unless it
-    fails its verification (:func:`_verify`), and its FOV lines are known from the start.
+    With a ``prior``, its H (method "loaded") is in use from the first frame and kept (no
+    re-fits) unless it fails its verification (:func:`_verify`), and its FOV lines are known
+    from the start.
     """
     slots = {
         (i, side): fov.new_slot(names[i], names[1 - i], side, sizes[i])
@@ -232,7 +231,7 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
             slots[i, side] = replace(slots[i, side], line=fov.FovLine(
                 seen_in, names[1 - i], side, line, events, -1))
         if prior.H_b_from_a is not None:
-            homography = HomographyEstimate(prior.H_b_from_a, "loaded", prior.markers,
+            homography = HomographyEstimate(prior.H_b_from_a, _PRIOR, prior.markers,
                                             np.zeros(0, bool), np.zeros(0), float("nan"))
     return PairState(
         names=names,
@@ -242,8 +241,19 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
         links=PairLinks(),
         markers=markers_init(sizes[0]),
         homography=homography,
-        fixed=isinstance(homography, HomographyEstimate),
     )
+
+
+def _in_use_from(state: PairState, frame: int) -> PairState:
+    """A :class:`PairPrior`'s H and lines (``from_frame`` -1) stamped with the pair's first
+    frame: from then on they are in use."""
+    H = state.homography
+    if isinstance(H, HomographyEstimate) and H.from_frame < 0:
+        state = replace(state, homography=replace(H, from_frame=frame))
+    slots = {k: replace(s, line=replace(s.line, from_frame=frame))
+             if s.line is not None and s.line.from_frame < 0 else s
+             for k, s in state.slots.items()}
+    return replace(state, slots=slots)
 
 
 def _samples(
@@ -558,6 +568,8 @@ def pair_step(
     for cam, size, name in zip((a, b), state.sizes, state.names, strict=True):
         if tuple(cam.size) != tuple(size):
             raise ValueError(f"camera {name}: targets have size {cam.size}, pair expects {size}")
+    if not state.history:
+        state = _in_use_from(state, frame)
     cams = (a, b)
     learned, events, changed = _learn_lines(state, cams, cfg.fov, frame)
     base = state.links if links is None else PairLinks.of(links, state.links, frame)
@@ -573,15 +585,9 @@ def pair_step(
     )
     marker_links = new_links.pairs() if links is None else base.pairs()
     markers, marker_result = marker_step(learned.markers, marker_links, a, b, cfg.markers, frame)
-    homography, attempt = (state.homography, None) if state.fixed else _maybe_fit(
+    prior = isinstance(state.homography, HomographyEstimate) and state.homography.method == _PRIOR
+    homography, attempt = (state.homography, None) if prior else _maybe_fit(
         state, markers, cfg.homography, frame)
-    if isinstance(homography, HomographyEstimate) and homography.from_frame < 0:
-        homography = replace(homography, from_frame=frame)  # a prior: in use from now
-    if any(s.line is not None and s.line.from_frame < 0 for s in learned.slots.values()):
-        learned = replace(learned, slots={  # a prior's lines: in use from now
-            k: replace(s, line=replace(s.line, from_frame=frame))
-            if s.line is not None and s.line.from_frame < 0 else s
-            for k, s in learned.slots.items()})
     fitted = attempt is not None
     checks, dropped = _verify(state, homography, a, b, cfg.homography)
     if dropped:  # its markers would fit it again: learning starts over
@@ -612,7 +618,6 @@ def pair_step(
         n_events=n_events,
         first_valid=first_valid,
         checks=checks,
-        fixed=state.fixed and not dropped,
     )
     result = PairResult(
         frame=frame,
