@@ -267,7 +267,7 @@ def track(
 ) -> None:
     """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
     from mvtrack.io.results import ResultsWriter
-    from mvtrack.pipeline import run
+    from mvtrack.pipeline import resolve_results, run
     from mvtrack.run_info import run_info
 
     if matcher is not None:
@@ -280,6 +280,8 @@ def track(
         with progress_bar("tracking") as update:
             summary = run(opened, resolved, rng, [writer], progress=update, priors=priors)
         writer.close(run_info(opened.spec, resolved, rng, summary), summary.pairs)
+        if resolved.resolve.labels == "whole_run":
+            resolve_results(out_dir, summary.pairs, resolved)
         for warning in opened.warnings[len(opened.spec.warnings):]:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if summary.interrupted:
@@ -310,6 +312,8 @@ def eval_(
     _print_camera_metrics(metrics, f"{results} against {clip}/truth")
     if "labels" in metrics:
         _print_flat("consistent labels (all cameras)", metrics["labels"])
+    if "labels_online" in metrics:
+        _print_flat("labels as assigned online (tracks_online.csv)", metrics["labels_online"])
     for pair in metrics.get("pairs", []):
         _print_flat(f"pair {'-'.join(pair['cameras'])}", pair)
     out.print(f"wrote {results / 'metrics.json'}")

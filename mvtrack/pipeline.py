@@ -16,12 +16,13 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any, Protocol
 
 import numpy as np
 
 from mvtrack.io import CameraSpec, Clip, Detections
-from mvtrack.io.results import LearnedPair
+from mvtrack.io.results import LearnedPair, read_tracks, rewrite_labels
 from mvtrack.params import Params
 from mvtrack.stages.background import (
     BackgroundResult,
@@ -49,6 +50,7 @@ from mvtrack.stages.pair import (
     pair_step,
     pair_summary,
 )
+from mvtrack.stages.resolve import resolve_labels
 from mvtrack.stages.targets import CameraTargets
 
 __all__ = ["CameraResult", "CameraStep", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
@@ -302,6 +304,16 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
     return {
         c.name: train_background(stacks[c.name], c.modality, params.background) for c in video
     }
+
+
+def resolve_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params) -> None:
+    """Rewrite a finished results directory with whole-run labels (`stages/resolve.py`), from
+    its `tracks.csv`, `cues.csv` and the pairs' final homographies (`pairs.json` objects)."""
+    rows = read_tracks(Path(out_dir) / "tracks.csv")
+    final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
+             for p in pairs]
+    res = resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov")
+    rewrite_labels(out_dir, res.meta, res.cue_meta)
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

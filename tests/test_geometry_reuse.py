@@ -43,15 +43,17 @@ def runs(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Any]:
 
 
 def test_geometry_from_other_frames_labels_people_from_the_first_frame(runs: dict) -> None:
-    """Measured on the first 600 frames: cold IDF1 / consistency 0.833 / 0.733, with the
-    geometry learned on frames 600-1199 0.915 / 0.962 (H in use from frame 0)."""
-    cold, warm = runs["cold"]["labels"], runs["warm"]["labels"]
+    """The labels as assigned online (what the viewer shows), first 600 frames: cold IDF1 /
+    consistency 0.833 / 0.733, with the geometry learned on frames 600-1199 0.915 / 0.962 (H in
+    use from frame 0). Resolved over the whole run, both reach 0.994 consistency."""
+    cold, warm = runs["cold"]["labels_online"], runs["warm"]["labels_online"]
     (pair,) = runs["warm_pairs"]
     assert pair["H_from_frame"] == 0
     assert pair["fov_lines"] and all(x["from_frame"] >= 0 for x in pair["fov_lines"])
     assert np.allclose(pair["H"], read_pairs(runs["learned"])[0].H_b_from_a)  # kept, not refit
     assert warm["consistency"] >= cold["consistency"] + 0.1, (warm, cold)
     assert warm["idf1_global"] >= cold["idf1_global"] + 0.05, (warm, cold)
+    assert runs["warm"]["labels"]["consistency"] >= 0.98, runs["warm"]["labels"]
     (m,) = runs["warm"]["pairs"]
     assert m["transfer_error_px"]["median"] <= 3.0
 

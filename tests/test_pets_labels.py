@@ -50,13 +50,16 @@ def pets_labels(shared_data: Path,
 def test_three_views_share_labels_better_than_fov_lines_alone(
     pets_labels: dict[str, dict[str, Any]],
 ) -> None:
-    """Measured: global IDF1 0.390 against 0.208 for FOV lines alone, consistency 0.541 against
-    0.020; every pair learns a homography (frames 50, 175, 190; median transfer error 7.0,
+    """Measured, labels resolved over the whole run: global IDF1 0.381 against 0.223 for FOV
+    lines alone, consistency 0.608 against 0.053 (as assigned online: 0.390 against 0.206,
+    0.541 against 0.024); every pair learns a homography (frames 50, 175, 190; median transfer error 7.0,
     18.2, 11.2 px against the calibration)."""
     h, f = pets_labels["homography"], pets_labels["fov"]
     assert h["labels"]["cameras"] == ["View_001", "View_003", "View_004"]
     assert h["labels"]["idf1_global"] >= f["labels"]["idf1_global"] + 0.1
-    assert h["labels"]["consistency"] >= 0.45 > f["labels"]["consistency"]
+    assert h["labels"]["consistency"] >= 0.5 > f["labels"]["consistency"]
+    assert h["labels_online"]["idf1_global"] >= f["labels_online"]["idf1_global"] + 0.1
+    assert h["labels_online"]["consistency"] >= 0.45 > f["labels_online"]["consistency"]
     assert all(p["first_valid_H"] is not None for p in h["pairs"])
     for cam in h["cameras"].values():
         assert cam["recall"] >= 0.75, cam

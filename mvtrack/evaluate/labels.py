@@ -266,10 +266,10 @@ def label_metrics(truth: Truth, rows: TrackRows, frames: range, cues: CueRows | 
     return out
 
 
-def labels_report(truth: Truth, rows: TrackRows, results: Path, frames: range,
+def labels_report(truth: Truth, rows: TrackRows, cues_csv: Path, frames: range,
                   gate_heights: float, min_visible: float) -> dict[str, Any]:
-    """:func:`label_metrics` of a results directory (with its `cues.csv` when present)."""
-    path = Path(results) / "cues.csv"
+    """:func:`label_metrics` of a run's rows (with its cues when ``cues_csv`` exists)."""
+    path = Path(cues_csv)
     cues = read_cues(path) if path.is_file() else None
     return label_metrics(truth, rows, frames, cues, LabelConfig(gate_heights, min_visible))
 

@@ -113,9 +113,15 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
         "results": str(results),
         "matching": {"gate_heights": cfg.gate_heights, "min_visible": cfg.min_visible},
         "cameras": per_camera,
-        "labels": labels_report(truth, rows, Path(results), processed_frames(results),
+        "labels": labels_report(truth, rows, Path(results) / "cues.csv",
+                                processed_frames(results),
                                 cfg.gate_heights, cfg.min_visible),
     }
+    online = Path(results) / "tracks_online.csv"
+    if online.is_file():
+        metrics["labels_online"] = labels_report(
+            truth, read_tracks(online), Path(results) / "cues_online.csv",
+            processed_frames(results), cfg.gate_heights, cfg.min_visible)
     pairs = pairs_metrics_for_results(Path(clip), Path(results), truth)
     if pairs is not None:
         metrics["pairs"] = pairs

@@ -2,6 +2,8 @@
 
 `tracks.csv` is written row by row as frames arrive, so an interrupted run keeps what it did.
 `run.json` is written at the end (and says whether the run was interrupted).
+:func:`rewrite_labels` then replaces the online metas with whole-run ones: the streamed files
+stay beside them as `tracks_online.csv` and `cues_online.csv` (same formats).
 
 Optional, beyond FORMATS.md: `masks/<camera>/<frame:06d>.png` every ``mask_every`` frames for
 video cameras, uint8 with 0 background, 1 foreground (tracked target pixels), 2 detected cast
@@ -12,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import json
+from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -21,7 +24,7 @@ import numpy as np
 
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "TrackRows",
-    "read_cues", "read_pairs", "read_tracks",
+    "read_cues", "read_pairs", "read_tracks", "rewrite_labels",
 ]
 
 TRACKS_HEADER = (
@@ -83,6 +86,44 @@ class ResultsWriter:
         (self.out_dir / "run.json").write_text(json.dumps(run_info, indent=2) + "\n")
         if pairs is not None:
             (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
+
+
+def rewrite_labels(out_dir: Path, meta: np.ndarray,
+                   cue_meta: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> None:
+    """Give `tracks.csv` the metas ``meta`` (one per row, in file order) and `cues.csv` the
+    metas ``cue_meta(frames, online metas)``; the originals become `*_online.csv`.
+
+    Cue rows that now name one meta twice in a frame and camera are merged (expected or seen
+    by either). Each file is written beside the original, then renamed over it.
+    """
+    out_dir = Path(out_dir)
+    tracks = _csv_rows(out_dir / "tracks.csv", TRACKS_HEADER)
+    if len(tracks) != len(meta):
+        raise ValueError(f"{out_dir / 'tracks.csv'}: {len(tracks)} rows, {len(meta)} metas")
+    meta_col = TRACKS_HEADER.index("meta")
+    for row, m in zip(tracks, meta.tolist(), strict=True):
+        row[meta_col] = str(m)
+    cues = _csv_rows(out_dir / "cues.csv", CUES_HEADER)
+    frames = np.array([int(r[0]) for r in cues], np.int64)
+    new = cue_meta(frames, np.array([int(r[1]) for r in cues], np.int64))
+    merged: dict[tuple[str, int, str], list[int]] = {}
+    for r, m in zip(cues, new.tolist(), strict=True):
+        flags = merged.setdefault((r[0], m, r[2]), [0, 0])
+        flags[0] |= int(r[3])
+        flags[1] |= int(r[4])
+    _replace(out_dir / "tracks.csv", TRACKS_HEADER, tracks)
+    _replace(out_dir / "cues.csv", CUES_HEADER,
+             [[f, m, c, *flags] for (f, m, c), flags in merged.items()])
+
+
+def _replace(path: Path, header: tuple[str, ...], rows: list[list[Any]]) -> None:
+    part = path.with_name(path.name + ".part")
+    with part.open("w", newline="", encoding="utf-8") as f:
+        w = csv.writer(f, lineterminator="\n")
+        w.writerow(header)
+        w.writerows(rows)
+    path.replace(path.with_name(path.stem + "_online" + path.suffix))
+    part.replace(path)
 
 
 @dataclass(frozen=True)

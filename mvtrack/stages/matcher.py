@@ -44,8 +44,10 @@ __all__ = [
     "MatchInputs",
     "MatchResult",
     "MatchState",
+    "gated_assignment",
     "match_init",
     "match_step",
+    "symmetric_transfer",
     "transfer_costs",
 ]
 
@@ -161,29 +163,38 @@ def match_init(names: tuple[str, str]) -> MatchState:
     return MatchState(names=names)
 
 
-def transfer_costs(
-    H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets
+def symmetric_transfer(
+    H_b_from_a: np.ndarray, feet_a: np.ndarray, heights_a: np.ndarray, feet_b: np.ndarray,
+    heights_b: np.ndarray,
 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Symmetric transfer distance in body heights between every A and every B target.
+    """The pair distance d (module docstring) between every A and every B point.
 
-    Returns (cost (NA, NB) float64, A feet in B (NA, 2) px, B feet in A (NB, 2) px).
-    Each transfer error is divided by the height (px, at least 1) of the target it is compared
-    with in that target's own camera; the two are averaged.
+    feet_*: (N, 2) px; heights_*: (N,) px. Returns (cost (NA, NB) float64 in body heights,
+    A feet in B (NA, 2) px, B feet in A (NB, 2) px). Each transfer error is divided by the
+    height (px, at least 1) of the target it is compared with in that target's own camera;
+    the two are averaged. Unprojectable points cost ``_BIG``.
     """
     H = np.asarray(H_b_from_a, np.float64)
-    a_in_b = apply_homography(H, a.feet) if len(a) else np.zeros((0, 2))
-    b_in_a = apply_homography(np.linalg.inv(H), b.feet) if len(b) else np.zeros((0, 2))
-    if not len(a) or not len(b):
-        return np.zeros((len(a), len(b))), a_in_b, b_in_a
-    err_b = np.linalg.norm(a_in_b[:, None, :] - b.feet[None, :, :], axis=2)
-    err_a = np.linalg.norm(b_in_a[None, :, :] - a.feet[:, None, :], axis=2)
-    h_a = np.maximum(a.heights_px, 1.0)[:, None]
-    h_b = np.maximum(b.heights_px, 1.0)[None, :]
+    a_in_b = apply_homography(H, feet_a) if len(feet_a) else np.zeros((0, 2))
+    b_in_a = apply_homography(np.linalg.inv(H), feet_b) if len(feet_b) else np.zeros((0, 2))
+    if not len(feet_a) or not len(feet_b):
+        return np.zeros((len(feet_a), len(feet_b))), a_in_b, b_in_a
+    err_b = np.linalg.norm(a_in_b[:, None, :] - feet_b[None, :, :], axis=2)
+    err_a = np.linalg.norm(b_in_a[None, :, :] - feet_a[:, None, :], axis=2)
+    h_a = np.maximum(heights_a, 1.0)[:, None]
+    h_b = np.maximum(heights_b, 1.0)[None, :]
     cost = 0.5 * (err_b / h_b + err_a / h_a)
     return np.where(np.isfinite(cost), cost, _BIG), a_in_b, b_in_a
 
 
-def _gated_assignment(cost: np.ndarray, rows: Sequence[int], cols: Sequence[int],
+def transfer_costs(
+    H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """:func:`symmetric_transfer` of two cameras' targets."""
+    return symmetric_transfer(H_b_from_a, a.feet, a.heights_px, b.feet, b.heights_px)
+
+
+def gated_assignment(cost: np.ndarray, rows: Sequence[int], cols: Sequence[int],
                       gate: float, margin: float = 0.0) -> list[tuple[int, int, float]]:
     """Minimum-cost one-to-one assignment of ``rows`` x ``cols`` of ``cost``, each pair < gate
     and at least ``margin`` below every other entry of its row and column (unambiguous)."""
@@ -313,7 +324,7 @@ def _reattach(f: _Frame, cost: np.ndarray, state: MatchState, lost: tuple[dict, 
         else:
             rows = [i for i in free_a if frame - born_a[labels_a[i]] <= max_age]
             cols = [j for j in free_b if labels_b[j] in lost[1]]
-        for i, j, d in _gated_assignment(cost, rows, cols, cfg.match_threshold_heights,
+        for i, j, d in gated_assignment(cost, rows, cols, cfg.match_threshold_heights,
                                          cfg.create_margin_heights):
             a, b = labels_a[i], labels_b[j]
             f.links.append(Link(a, b, "reattach", frame, confirmations=1))
@@ -327,7 +338,7 @@ def _create(f: _Frame, cost: np.ndarray, state: MatchState, cfg: MatcherConfig,
     labels_b = {i: label for label, i in f.index_b.items()}
     pending: dict[Pair, int] = {}
     shown = []
-    for i, j, d in _gated_assignment(cost, f.free(0), f.free(1), cfg.match_threshold_heights,
+    for i, j, d in gated_assignment(cost, f.free(0), f.free(1), cfg.match_threshold_heights,
                                      cfg.create_margin_heights):
         pair = (labels_a[i], labels_b[j])
         count = state.pending.get(pair, 0) + 1

@@ -1,0 +1,165 @@
+"""Whole-run label resolution (stages/resolve.py) and how results directories are rewritten."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pytest
+
+from mvtrack.io.results import ResultsWriter, read_cues, read_tracks, rewrite_labels
+from mvtrack.params import ParamsError, ResolveConfig
+from mvtrack.stages.resolve import resolve_labels
+
+CFG = ResolveConfig()
+SHIFT = np.array([[1.0, 0.0, 40.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # cam1 = cam0 + (40, 0)
+
+
+@dataclass(frozen=True)
+class Rows:
+    frame: np.ndarray
+    camera: np.ndarray
+    target: np.ndarray
+    meta: np.ndarray
+    feet: np.ndarray
+    height: np.ndarray
+
+
+def _rows(tracks: list[tuple[str, int, int, range, tuple[float, float]]]) -> Rows:
+    """(camera, target, online meta, frames, cam0 ground point) -> rows; cam1 sees it shifted."""
+    cols: list[list] = [[], [], [], [], [], []]
+    for cam, target, meta, frames, (x, y) in tracks:
+        for f in frames:
+            dx = 40.0 if cam == "cam1" else 0.0
+            for col, v in zip(cols, (f, cam, target, meta, (x + dx + 0.1 * f, y), 50.0),
+                              strict=True):
+                col.append(v)
+    return Rows(np.array(cols[0], np.int64), np.array(cols[1]), np.array(cols[2], np.int64),
+                np.array(cols[3], np.int64), np.array(cols[4], np.float64),
+                np.array(cols[5], np.float64))
+
+
+def _meta_of(rows: Rows, res_meta: np.ndarray) -> dict[tuple[str, int], set[int]]:
+    out: dict[tuple[str, int], set[int]] = {}
+    for c, t, m in zip(rows.camera.tolist(), rows.target.tolist(), res_meta.tolist(),
+                       strict=True):
+        out.setdefault((c, t), set()).add(m)
+    return out
+
+
+def test_people_seen_together_before_h_share_one_meta_for_life() -> None:
+    """Two people in both views from frame 0; online they got separate metas until frame 30
+    (no H yet), and person 2 left before it. The final H joins both for their whole lives."""
+    rows = _rows([
+        ("cam0", 1, 1, range(0, 60), (100.0, 100.0)), ("cam1", 1, 2, range(0, 60), (100.0, 100.0)),
+        ("cam0", 2, 3, range(0, 25), (200.0, 150.0)), ("cam1", 2, 4, range(0, 25), (200.0, 150.0)),
+    ])
+    online = rows.meta.copy()
+    online[(rows.camera == "cam1") & (rows.target == 1) & (rows.frame >= 30)] = 1
+    rows = replace(rows, meta=online)
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert all(len(v) == 1 for v in metas.values())  # one meta per target for its whole life
+    assert metas["cam0", 1] == metas["cam1", 1] == {1}  # keeps the meta most rows carried
+    assert metas["cam0", 2] == metas["cam1", 2] != metas["cam0", 1]
+    assert {(x.a, x.b) for x in res.links if x.joined} == {(("cam0", 1), ("cam1", 1)),
+                                                           (("cam0", 2), ("cam1", 2))}
+
+
+def test_fov_baseline_never_uses_the_homography() -> None:
+    rows = _rows([("cam0", 1, 1, range(40), (100.0, 100.0)),
+                  ("cam1", 1, 2, range(40), (100.0, 100.0))])
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, use_h=False)
+    assert len(set(res.meta.tolist())) == 2
+    assert not res.links
+
+
+def test_two_people_of_one_camera_are_never_joined() -> None:
+    """cam1's single target covers person A, then person B (an identity swap); cam0 sees both
+    people side by side all along. The swap must not join A and B."""
+    rows = _rows([
+        ("cam0", 1, 1, range(0, 80), (100.0, 100.0)),
+        ("cam0", 2, 2, range(0, 80), (100.0, 200.0)),
+        ("cam1", 7, 3, range(0, 40), (100.0, 100.0)),
+    ])
+    swapped = _rows([("cam1", 7, 3, range(40, 80), (100.0, 200.0))])
+    rows = Rows(*(np.concatenate([getattr(rows, f), getattr(swapped, f)])
+                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] != metas["cam0", 2]
+    assert [x.joined for x in res.links] == [True, False]
+
+
+def test_fragments_of_one_person_join_but_not_after_a_long_gap() -> None:
+    """A split blob: cam0 targets 1 and 3 side by side for 10 frames (fragments of one person)
+    both join cam1's target. A target that took over cam0 target 4's meta 60 frames after it
+    ended (beyond resume_gap_frames) does not keep it."""
+    rows = _rows([
+        ("cam0", 1, 1, range(0, 40), (100.0, 100.0)),
+        ("cam0", 3, 5, range(30, 80), (100.0, 100.0)),
+        ("cam1", 2, 1, range(0, 80), (100.0, 100.0)),
+        ("cam0", 4, 9, range(100, 120), (250.0, 30.0)),
+        ("cam0", 6, 9, range(180, 200), (250.0, 30.0)),
+    ])
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] == metas["cam0", 3] == metas["cam1", 2]
+    assert metas["cam0", 4] != metas["cam0", 6]
+    near = resolve_labels(rows, [("cam0", "cam1", SHIFT)], replace(CFG, resume_gap_frames=80))
+    assert len(set(near.meta[rows.meta == 9].tolist())) == 1
+
+
+def test_pairs_without_h_keep_the_runs_own_links() -> None:
+    rows = _rows([("cam0", 1, 1, range(20), (100.0, 100.0)),
+                  ("cam1", 1, 1, range(20), (300.0, 10.0)),
+                  ("cam0", 2, 2, range(20), (100.0, 150.0)),
+                  ("cam1", 2, 3, range(20), (100.0, 150.0))])
+    res = resolve_labels(rows, [("cam0", "cam1", None)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] == metas["cam1", 1]
+    assert metas["cam0", 2] != metas["cam1", 2]
+
+
+def test_empty_run() -> None:
+    rows = _rows([])
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    assert res.meta.shape == (0,) and not res.links
+
+
+def test_labels_mode_is_checked() -> None:
+    with pytest.raises(ParamsError, match="labels = 'later'"):
+        ResolveConfig(labels="later")
+
+
+def test_rewrite_keeps_the_online_files_and_merges_cues(tmp_path) -> None:
+    writer = ResultsWriter(tmp_path)
+    writer.close({"frames": 0})
+    (tmp_path / "tracks.csv").write_text(
+        "frame,camera,target,meta,foot_x,foot_y,box_x,box_y,box_w,box_h,height\n"
+        "0,cam0,1,1,10.00,20.00,5.0,0.0,10.0,20.0,20.00\n"
+        "0,cam1,1,2,30.00,20.00,25.0,0.0,10.0,20.0,20.00\n")
+    (tmp_path / "cues.csv").write_text(
+        "frame,meta,camera,expected,seen\n0,1,cam0,1,1\n0,2,cam0,1,0\n0,1,cam1,0,0\n"
+        "0,2,cam1,1,1\n1,2,cam1,1,0\n")
+    online = (tmp_path / "tracks.csv").read_text()
+    rewrite_labels(tmp_path, np.array([1, 1]), lambda f, m: np.ones_like(m))
+    assert (tmp_path / "tracks_online.csv").read_text() == online
+    assert read_tracks(tmp_path / "tracks.csv").meta.tolist() == [1, 1]
+    assert read_tracks(tmp_path / "tracks_online.csv").meta.tolist() == [1, 2]
+    cues = read_cues(tmp_path / "cues.csv")
+    assert list(zip(cues.frame.tolist(), cues.meta.tolist(), cues.camera.tolist(),
+                    cues.expected.tolist(), cues.seen.tolist(), strict=True)) == [
+        (0, 1, "cam0", True, True), (0, 1, "cam1", True, True), (1, 1, "cam1", True, False)]
+    assert len(read_cues(tmp_path / "cues_online.csv").frame) == 5
+    with pytest.raises(ValueError, match=r"tracks\.csv: 2 rows, 3 metas"):
+        rewrite_labels(tmp_path, np.array([1, 1, 1]), lambda f, m: m)
+
+
+def test_cue_meta_follows_the_targets_and_carries_forward() -> None:
+    rows = _rows([("cam0", 1, 1, range(0, 30), (100.0, 100.0)),
+                  ("cam1", 1, 2, range(0, 30), (100.0, 100.0))])
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    (m,) = set(res.meta.tolist())
+    got = res.cue_meta(np.array([5, 31, 40, 3]), np.array([2, 2, 7, 1]))
+    assert got.tolist() == [m, m, 7, m]  # frame 31: no target carries meta 2 any more
