@@ -289,6 +289,9 @@ def track(
         raise typer.Exit(code=130)
     out.print(f"tracked {summary.frames} frames of {len(opened.spec.cameras)} cameras "
               f"-> {out_dir}")
+    if resolved.resolve.labels == "whole_run":
+        out.print("labels resolved over the whole run; as assigned frame by frame (what "
+                  "mvtrack-view shows): tracks_online.csv")
 
 
 def _fmt(value: Any) -> str:

@@ -72,10 +72,18 @@ def test_track_then_eval(small_clip: Path, tmp_path: Path) -> None:
     rows = read_tracks(out / "tracks.csv")
     assert len(rows.frame) > 0
     assert set(rows.camera.tolist()) <= {"cam0", "cam1"}
-    # every target has a meta >= 1, and one meta never spans two targets of one camera
+    # every target has one meta >= 1 for its whole life (resolved over the run)
     assert rows.meta.min() >= 1
     for cam in ("cam0", "cam1"):
         mine = rows.of_camera(cam)
+        for target in set(mine.target.tolist()):
+            assert len(set(mine.meta[mine.target == target].tolist())) == 1
+    # online, one meta never spans two targets of one camera (resolved, fragments of one
+    # person may share one)
+    online = read_tracks(out / "tracks_online.csv")
+    assert len(online.frame) == len(rows.frame)
+    for cam in ("cam0", "cam1"):
+        mine = online.of_camera(cam)
         for frame in set(mine.frame.tolist()):
             metas = mine.meta[mine.frame == frame]
             assert len(set(metas.tolist())) == len(metas)
@@ -92,6 +100,16 @@ def test_track_then_eval(small_clip: Path, tmp_path: Path) -> None:
         figures = metrics["cameras"][cam]
         assert 0.0 <= figures["recall"] <= 1.0
         assert "masks" in figures  # frames 0, 25, 50 have masks on both sides
+    assert "labels_online" in metrics
+
+
+def test_track_online_labels_only(small_clip: Path, tmp_path: Path) -> None:
+    out = tmp_path / "res"
+    result = runner.invoke(app, ["track", str(small_clip), "--out", str(out), "--frames", "0:30",
+                                 "--mask-every", "0", "--set", "resolve.labels=online"])
+    assert result.exit_code == 0, result.output
+    assert (out / "tracks.csv").is_file() and not (out / "tracks_online.csv").exists()
+    assert json.loads((out / "run.json").read_text())["thresholds"]["resolve"]["labels"] == "online"
 
 
 def test_track_with_bad_threshold_fails_before_work(small_clip: Path, tmp_path: Path) -> None:
