@@ -632,3 +632,24 @@ def test_small_far_walker_is_an_mvo_once_the_camera_knows_people_are_small_there
     assert near_far.sum() == 1
     assert bool(b.is_mvo[near_far][0]) == far_found
     assert b.area_px[near_far][0] < b.min_area_px
+
+
+def test_camera_learns_people_sizes_where_every_walker_is_below_t_area() -> None:
+    """In a small frame, people may all be under T_area: none becomes an MVO to learn from.
+    Moving person-shaped blobs teach the size model anyway, and then they are MVOs."""
+    rng = np.random.default_rng(7)
+    ground = _ground(rng)
+    cfg = dataclasses.replace(CFG, min_area_px=500, min_area_ref_size_px=0, size_min_samples=20,
+                              size_refit_frames=5)
+    state = _train(ground, rng, cfg=cfg)
+    mvo = []
+    for t in range(35):
+        bottom = 50 + 2 * t
+        h = int(0.3 * bottom)
+        frame = _paste(ground, _walker(h, rng), 30 + t, bottom - h)
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+        walker = r.blobs.area_px > 20
+        assert walker.sum() == 1 and r.blobs.area_px[walker][0] < 500
+        mvo.append(bool(r.blobs.is_mvo[walker][0]))
+    assert state.sizes.line is not None
+    assert not any(mvo[:5]) and all(mvo[-10:])

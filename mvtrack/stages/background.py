@@ -103,8 +103,9 @@ class SizeModel:
     """A person's height in px against the image row of their feet, learned from MVOs.
 
     Far people are small: one T_area for the whole frame either drops them or lets in noise
-    near the camera. MVO blobs shaped like a standing person (not touching the frame's sides,
-    height / width in [size_min_aspect, size_max_aspect]) give samples (bottom row, height);
+    near the camera. Blobs shaped like a standing person (not touching the frame's sides,
+    height / width in [size_min_aspect, size_max_aspect]) that are MVOs, or would be but for
+    T_area, give samples (bottom row, height);
     a robust line height = slope * row + intercept through them (:func:`_fit_sizes`) lowers
     T_area for a blob to ``size_area_frac`` * (predicted height)^2 where that is smaller.
 
@@ -754,7 +755,11 @@ def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
     ``size_refit_frames`` frames."""
     if cfg.size_area_frac <= 0:
         return sizes
-    box = blobs.box_xywh[blobs.is_mvo]
+    # Moving, person-shaped blobs below T_area count too: where people are smaller than T_area
+    # none would ever become an MVO to learn from.
+    person = blobs.strong_ok & blobs.edge_ok & blobs.moving_ok & (
+        blobs.area_px >= cfg.size_min_area_px)
+    box = blobs.box_xywh[blobs.is_mvo | person]
     height, width = shape[0], shape[1]
     inside = (box[:, 0] > 0) & (box[:, 1] > 0) & (box[:, 0] + box[:, 2] < width - 1) & (
         box[:, 1] + box[:, 3] < height - 1)
