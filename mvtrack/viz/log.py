@@ -13,7 +13,9 @@ from dataclasses import dataclass
 
 import cv2
 import numpy as np
+import pyarrow as pa
 import rerun as rr
+from rerun.components import ImageBufferBatch, ImageFormat
 
 from mvtrack.viz import paths
 from mvtrack.viz.colors import MASK_COLORS, meta_color
@@ -22,6 +24,7 @@ __all__ = [
     "ImageOptions",
     "blobs_layer",
     "distance_layer",
+    "encoded_jpeg",
     "image_layer",
     "line_strip_in_frame",
     "mask_context",
@@ -29,6 +32,7 @@ __all__ = [
     "meta_context",
     "metas_image",
     "ring_strips",
+    "segmentation_image",
     "strips_key",
     "to_viewer",
 ]
@@ -62,6 +66,36 @@ class ImageOptions:
     distance_quality: int = 60
 
 
+def _blob(data: np.ndarray) -> pa.Array:
+    """One Rerun blob (list<uint8>) over ``data``'s bytes without copying them.
+
+    ``rr.SegmentationImage(arr)`` copies a 768x576 image three times before the SDK sees it
+    (``tobytes``, ``pa.array``, ``pa.concat_arrays``): 0.27 against 0.10 ms per image logged.
+    """
+    flat = np.ascontiguousarray(data).reshape(-1).view(np.uint8)
+    return pa.ListArray.from_arrays(pa.array([0, flat.size], pa.int32()), pa.array(flat),
+                                    type=ImageBufferBatch._ARROW_DATATYPE)
+
+
+def segmentation_image(image: np.ndarray, opacity: float,
+                       draw_order: float) -> rr.SegmentationImage:
+    """``rr.SegmentationImage(image, opacity=, draw_order=)`` for (H,W) uint8/uint16, built on
+    the image's own bytes (the caller must not change ``image`` afterwards)."""
+    h, w = image.shape
+    fmt = ImageFormat(width=w, height=h, channel_datatype=_CHANNEL[image.dtype])
+    return rr.SegmentationImage.from_fields(buffer=_blob(image), format=fmt, opacity=opacity,
+                                            draw_order=draw_order)
+
+
+_CHANNEL = {np.dtype(np.uint8): "U8", np.dtype(np.uint16): "U16"}
+
+
+def encoded_jpeg(encoded: np.ndarray, draw_order: float | None = None) -> rr.EncodedImage:
+    """A JPEG from ``cv2.imencode`` ((N,) or (N,1) uint8) as an ``EncodedImage``, uncopied."""
+    return rr.EncodedImage.from_fields(blob=_blob(encoded), media_type="image/jpeg",
+                                       draw_order=draw_order)
+
+
 def to_viewer(points_xy: np.ndarray) -> np.ndarray:
     """(N, 2) float64: mvtrack pixel coordinates -> Rerun 2D view coordinates (+0.5 px)."""
     return np.asarray(points_xy, np.float64).reshape(-1, 2) + _HALF_PX
@@ -77,7 +111,7 @@ def image_layer(image: np.ndarray, opts: ImageOptions,
     ok, buf = cv2.imencode(".jpg", image, [cv2.IMWRITE_JPEG_QUALITY, opts.jpeg_quality])
     if not ok:
         raise RuntimeError("cv2.imencode failed on a camera image")
-    return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg", draw_order=draw_order)
+    return encoded_jpeg(buf, draw_order)
 
 
 def distance_layer(distance: np.ndarray, opts: ImageOptions) -> rr.AsComponents:
@@ -90,7 +124,7 @@ def distance_layer(distance: np.ndarray, opts: ImageOptions) -> rr.AsComponents:
     ok, buf = cv2.imencode(".jpg", u8, [cv2.IMWRITE_JPEG_QUALITY, opts.distance_quality])
     if not ok:
         raise RuntimeError("cv2.imencode failed on D_B")
-    return rr.EncodedImage(contents=buf.tobytes(), media_type="image/jpeg", draw_order=-9.0)
+    return encoded_jpeg(buf, -9.0)
 
 
 def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
@@ -102,7 +136,7 @@ def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
     packed = cv2.add(cv2.addWeighted(bits[0], 1.0, bits[1], 2.0, 0.0),
                      cv2.addWeighted(bits[2], 4.0, bits[3], 8.0, 0.0))
     codes = np.asarray(cv2.LUT(packed, _MASK_CODES), np.uint8)
-    return rr.SegmentationImage(codes, opacity=0.6, draw_order=-5.0)
+    return segmentation_image(codes, opacity=0.6, draw_order=-5.0)
 
 
 def mask_context() -> rr.AnnotationContext:

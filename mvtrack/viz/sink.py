@@ -51,6 +51,7 @@ from mvtrack.viz.log import (
     masks_layer,
     meta_context,
     metas_image,
+    segmentation_image,
     strips_key,
     to_viewer,
 )
@@ -372,7 +373,7 @@ class RerunSink:
                 self._log_blobs(name, cam)
         tracks = cam.tracks
         if opts.labels and tracks.label_image is not None:
-            rec.log(paths.camera_layer(name, "labels"), rr.SegmentationImage(
+            rec.log(paths.camera_layer(name, "labels"), segmentation_image(
                 metas_image(tracks.label_image, tracks.labels, metas), opacity=0.45,
                 draw_order=-4.0))
         targets = cam.targets
