@@ -16,6 +16,7 @@ import numpy as np
 import pyarrow as pa
 import rerun as rr
 from rerun.components import ImageBufferBatch, ImageFormat
+from rerun.datatypes import ChannelDatatype
 
 from mvtrack.viz import paths
 from mvtrack.viz.colors import MASK_COLORS, meta_color
@@ -87,7 +88,7 @@ def segmentation_image(image: np.ndarray, opacity: float,
                                             draw_order=draw_order)
 
 
-_CHANNEL = {np.dtype(np.uint8): "U8", np.dtype(np.uint16): "U16"}
+_CHANNEL = {np.dtype(np.uint8): ChannelDatatype.U8, np.dtype(np.uint16): ChannelDatatype.U16}
 
 
 def encoded_jpeg(encoded: np.ndarray, draw_order: float | None = None) -> rr.EncodedImage:
