@@ -16,7 +16,7 @@ import numpy as np
 import pyarrow as pa
 import rerun as rr
 from rerun.components import ImageBufferBatch, ImageFormat
-from rerun.datatypes import ChannelDatatype
+from rerun.encodings import ChannelDatatype
 
 from mvtrack.viz import paths
 from mvtrack.viz.colors import MASK_COLORS, meta_color
