@@ -69,6 +69,23 @@ def test_hardly_visible_truth_is_dont_care() -> None:
         assert (det["recall"], det["precision"]) == (1.0, 1.0)
 
 
+def test_prediction_on_a_person_cut_by_the_frame_edge_is_dont_care() -> None:
+    """Person 2 is mostly below the frame: its feet (y 300) are outside, its visible box is
+    the frame's bottom rows. A prediction with feet at the frame's bottom edge inside that box
+    is not a false alarm; the same prediction beside the box is."""
+    truth = truth_two_people(4)
+    two = truth.ids == 2
+    feet = np.where(two[:, None], [[100.0, 300.0]], truth.feet)
+    boxes = np.where(two[:, None], [[90.0, 220.0, 20.0, 20.0]], [[0.0, 0.0, 1.0, 1.0]])
+    truth = FrameRows.of(truth.frames, truth.ids, feet, truth.heights,
+                         np.where(two, 0.2, 1.0), boxes)
+    for x, precision in ((100.0, 1.0), (150.0, 0.5)):
+        pred = FrameRows.of(truth.frames, truth.ids,
+                            np.where(two[:, None], [[x, 239.0]], truth.feet))
+        det = detection_scores(pred, truth)
+        assert (det["recall"], det["precision"]) == (1.0, precision), x
+
+
 def test_false_alarms_lower_precision() -> None:
     truth = truth_two_people(4)
     extra = FrameRows.of(

@@ -89,11 +89,12 @@ def _global_idf1(truth: Truth, rows: TrackRows, cameras: list[str], frames: rang
         t = FrameRows.from_truth(truth.cameras[name], frames)
         mine = rows.of_camera(name)
         preds.append(FrameRows.of(mine.frame * n + c, mine.meta, mine.feet))
-        truths.append(FrameRows.of(t.frames * n + c, t.ids, t.feet, t.heights, t.visible))
+        truths.append(FrameRows.of(t.frames * n + c, t.ids, t.feet, t.heights, t.visible,
+                                   t.boxes_xywh))
 
     def cat(parts: list[FrameRows]) -> FrameRows:
         return FrameRows(*(np.concatenate([getattr(p, f) for p in parts])
-                           for f in ("frames", "ids", "feet", "heights", "visible")))
+                           for f in FrameRows.__dataclass_fields__))
 
     return idf1(cat(preds), cat(truths), cfg.gate_heights, cfg.min_visible)
 

@@ -5,7 +5,10 @@ feet distance gated by the person's height (a gate in body heights works at ever
 a prediction matches a truth row when ``|foot_pred - foot_true| < gate_heights * height_true``.
 
 Truth rows of people less than ``min_visible`` visible are "don't care": a prediction matched to
-one is neither a hit nor a false alarm, and missing one is not a miss.
+one is neither a hit nor a false alarm, and missing one is not a miss. A person cut by the frame
+edge has its feet outside the frame, where no prediction can put them: a prediction left
+unmatched whose feet fall inside the visible box of a don't-care row of its frame is that
+person's, and is ignored too (MOTChallenge ignores predictions on its ignore regions alike).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ class FrameRows:
 
     frames: (N,) int64; ids: (N,) int64; feet: (N, 2) float64; heights: (N,) float64 (truth: the
     person's box height in px; predictions: unused, may be zeros); visible: (N,) float64 (1.0 for
-    predictions).
+    predictions); boxes_xywh: (N, 4) float64, truth: the visible box (predictions: NaN).
     """
 
     frames: np.ndarray
@@ -46,10 +49,11 @@ class FrameRows:
     feet: np.ndarray
     heights: np.ndarray
     visible: np.ndarray
+    boxes_xywh: np.ndarray
 
     @classmethod
     def of(cls, frames: object, ids: object, feet: object, heights: object = None,
-           visible: object = None) -> FrameRows:
+           visible: object = None, boxes_xywh: object = None) -> FrameRows:
         f = np.asarray(frames, np.int64).reshape(-1)
         n = len(f)
         return cls(
@@ -58,6 +62,8 @@ class FrameRows:
             feet=np.asarray(feet, np.float64).reshape(n, 2),
             heights=np.zeros(n) if heights is None else np.asarray(heights, np.float64).reshape(n),
             visible=np.ones(n) if visible is None else np.asarray(visible, np.float64).reshape(n),
+            boxes_xywh=np.full((n, 4), np.nan) if boxes_xywh is None
+            else np.asarray(boxes_xywh, np.float64).reshape(n, 4),
         )
 
     @classmethod
@@ -66,7 +72,7 @@ class FrameRows:
         ``visible`` the share of the whole silhouette seen (occlusion and frame edge)."""
         keep = (t.frame >= frames.start) & (t.frame < frames.stop)
         return cls.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
-                      t.shown[keep])
+                      t.shown[keep], t.box_xywh[keep])
 
     def by_frame(self) -> dict[int, np.ndarray]:
         """Frame index -> row indices."""
@@ -111,6 +117,9 @@ def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
                              gate_heights)
         counted = truth.visible[t_idx[j]] >= min_visible
         pred_ignored += int((~counted).sum())
+        unmatched = np.delete(p_idx, i)
+        pred_ignored += int(_in_boxes(pred.feet[unmatched], truth.boxes_xywh[
+            t_idx[truth.visible[t_idx] < min_visible]]).sum())
         pr.append(p_idx[i[counted]])
         tr.append(t_idx[j[counted]])
     return Matches(
@@ -119,6 +128,16 @@ def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
         pred_counted=len(pred.frames) - pred_ignored,
         true_counted=int((truth.visible >= min_visible).sum()),
     )
+
+
+def _in_boxes(points: np.ndarray, boxes_xywh: np.ndarray) -> np.ndarray:
+    """(N,) bool: each point inside any of the boxes (edges included; NaN boxes never)."""
+    if not len(points) or not len(boxes_xywh):
+        return np.zeros(len(points), bool)
+    x, y = points[:, 0:1], points[:, 1:2]
+    x0, y0 = boxes_xywh[:, 0], boxes_xywh[:, 1]
+    inside = (x >= x0) & (x <= x0 + boxes_xywh[:, 2]) & (y >= y0) & (y <= y0 + boxes_xywh[:, 3])
+    return inside.any(axis=1)
 
 
 def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
