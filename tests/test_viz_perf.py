@@ -1,4 +1,4 @@
-"""The viewer's speed work keeps results identical: the logging thread, the look-up-table layers,
+"""The viewer's speed work keeps results identical: the image thread, the look-up-table layers,
 the pipeline's replay hook, the overview's event filter and the logging benchmark's table."""
 
 from __future__ import annotations
@@ -9,6 +9,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import pytest
 import rerun.blueprint as rrb
@@ -20,6 +21,7 @@ from mvtrack.io import ClipError, open_clip
 from mvtrack.params import Params, load_params
 from mvtrack.pipeline import STAGES, FrameResult, Pipeline, run
 from mvtrack.viz import paths
+from mvtrack.viz import sink as sink_module
 from mvtrack.viz.bench import bench_logging
 from mvtrack.viz.log import masks_layer, metas_image
 from mvtrack.viz.outputs import Target, open_outputs
@@ -64,8 +66,8 @@ def _rows(rrd: Path) -> dict[str, list[str]]:
     return {k: sorted(v) for k, v in out.items()}
 
 
-def test_logging_thread_writes_the_same_recording(scene: Path, tmp_path: Path) -> None:
-    _record(scene, tmp_path / "thread.rrd", LogOptions(thread=True, queue_frames=2))
+def test_image_thread_writes_the_same_recording(scene: Path, tmp_path: Path) -> None:
+    _record(scene, tmp_path / "thread.rrd", LogOptions(thread=True))
     _record(scene, tmp_path / "inline.rrd", LogOptions(thread=False))
     threaded, inline = _rows(tmp_path / "thread.rrd"), _rows(tmp_path / "inline.rrd")
     assert set(threaded) == set(inline)
@@ -87,15 +89,26 @@ def test_logging_thread_writes_the_same_recording(scene: Path, tmp_path: Path) -
     assert len(inline[paths.camera_layer("cam0", "image")]) == N_FRAMES
 
 
-def test_logging_errors_reach_the_caller(scene: Path, tmp_path: Path) -> None:
+def test_image_thread_errors_reach_the_caller(scene: Path, tmp_path: Path,
+                                              monkeypatch: pytest.MonkeyPatch) -> None:
+    keep = _Keep()
     with open_clip(scene) as clip:
+        run(clip, _params(), range(2), [keep])
         rec = new_recording("err", deterministic=True)
         rec.save(tmp_path / "err.rrd")
         sink = RerunSink(rec, clip.spec, _params(), LogOptions(thread=True))
-        sink.on_frame(object())  # type: ignore[arg-type]  # not a FrameResult
-        with pytest.raises(AttributeError):
-            sink.close()
-        assert sink._thread is not None and not sink._thread.thread.is_alive()
+
+        def broken(*_: Any) -> None:
+            raise cv2.error("encoder failed")
+
+        monkeypatch.setattr(sink_module, "image_layer", broken)
+        with pytest.raises(cv2.error, match="encoder failed"):
+            sink.on_frame(keep.results[0])
+        monkeypatch.undo()
+        sink.on_frame(keep.results[1])  # the sink still logs after an error
+        sink.close()
+        assert sink._images is not None and sink._images._shutdown
+        assert sink.frames_logged == 1
         rec.disconnect()
 
 
@@ -197,7 +210,7 @@ def test_bench_table_splits_the_wall_time_by_stage(scene: Path, tmp_path: Path) 
     # stages lie inside the loop; the cameras' front ends run concurrently, each counted
     front = sum(rows[s]["ms_off"] for s in ("background", "tracker", "feet"))
     assert 0.3 * wall_off < stages_off <= wall_off * 1.01 + 0.2 + front * (1 - 1 / result.cameras)
-    assert rows["logging (thread)"]["ms_on"] > 0
+    assert rows["logging"]["ms_on"] > 0
     d = result.as_dict()
     assert d["on_over_off"] == pytest.approx(d["fps_viewer_on"] / d["fps_viewer_off"], abs=0.02)
     assert d["realtime_on"] == pytest.approx(d["fps_viewer_on"] / 25.0, abs=0.02)

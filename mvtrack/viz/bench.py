@@ -5,8 +5,8 @@
 
 Both runs go through :func:`mvtrack.pipeline.run` on the same frames (decoding included in
 both); "on" logs every layer of :class:`~mvtrack.viz.sink.LogOptions` to an .rrd file, whose
-size gives the bytes per frame. The "on" time runs until the sink's logging thread has logged
-everything and the file is closed, so it is the wall time a user waits. Per-stage milliseconds
+size gives the bytes per frame. The "on" time runs until the sink has logged everything and
+the file is closed, so it is the wall time a user waits. Per-stage milliseconds
 come from the same two runs, so the bound (which stage, or logging) is read off one table even
 on a machine shared with other work.
 """
@@ -33,14 +33,14 @@ class LoggingBench:
     """Frame sets (all cameras of one clip frame) per second without and with logging.
 
     fps_off, fps_on:  frame sets per second, wall time (training excluded), sink off / on
-    log_ms_per_frame: time spent building and handing over one frame set's layers (on the
-                      logging thread when it runs, overlapping the pipeline)
+    log_ms_per_frame: wall time the sink spends logging one frame set (between the pipeline's
+                      frames; the image layers encode on its helper thread meanwhile)
     bytes_per_frame:  recording size / frames
     stage_ms_off, stage_ms_on: per stage (:data:`~mvtrack.pipeline.STAGES`), milliseconds per
                       frame set, summed over cameras, in each run (the cameras' front ends run
                       concurrently, so their shares of the wall time can add up to more than 1)
     clip_fps:         the clip's frame rate (real time)
-    thread:           whether the sink logged on its background thread
+    thread:           whether the sink encoded the image layers on its helper thread
     cpu_ms_off, cpu_ms_on: CPU time of the whole process (every thread, the SDK's included) per
                       frame set, training excluded: what logging costs in work, a figure that
                       other programs on a shared machine disturb less than the wall time
@@ -80,14 +80,14 @@ class LoggingBench:
 
     def stage_rows(self) -> list[dict[str, Any]]:
         """Per stage: ms per frame set off / on and its share of the "off" wall time; then the
-        logging thread's ms and the wall time per frame set of each run."""
+        sink's logging ms and the wall time per frame set of each run."""
         wall_off = 1000.0 / max(self.fps_off, 1e-9)
         wall_on = 1000.0 / max(self.fps_on, 1e-9)
         rows = [{"stage": s, "ms_off": round(self.stage_ms_off.get(s, 0.0), 1),
                  "ms_on": round(self.stage_ms_on.get(s, 0.0), 1),
                  "share_of_off": round(self.stage_ms_off.get(s, 0.0) / wall_off, 2)}
                 for s in STAGES]
-        rows.append({"stage": "logging (thread)" if self.thread else "logging",
+        rows.append({"stage": "logging",
                      "ms_off": 0.0, "ms_on": round(self.log_ms_per_frame, 1),
                      "share_of_off": round(self.log_ms_per_frame / wall_off, 2)})
         rows.append({"stage": "wall", "ms_off": round(wall_off, 1), "ms_on": round(wall_on, 1),
@@ -123,7 +123,7 @@ def _bench(clip: Clip, params: Params, frames: range, out_dir: Path,
     try:
         on = run(clip, params, frames, [sink])
     finally:
-        sink.close()  # the logging thread has logged every frame
+        sink.close()  # the image thread has stopped, the stream is flushed
         outputs.close()  # the file is complete once the SDK has written everything
     on_s = time.perf_counter() - start - on.train_seconds
     on_cpu = time.process_time() - cpu - on.train_seconds

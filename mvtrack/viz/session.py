@@ -41,7 +41,7 @@ def layout_for(layout: str, cameras: Sequence[str], pairs: Sequence[tuple[str, s
 def one_opencv_thread() -> Iterator[None]:
     """OpenCV on one thread inside the block (its previous setting restored after).
 
-    The pipeline already runs the cameras on their own threads and the sink logs on another;
+    The pipeline already runs the cameras on their own threads and the sink encodes on another;
     OpenCV's own worker pool on top oversubscribes two cores, and some of its parallel paths
     are slower than the serial ones: connected components with statistics on a 768x576 mask
     take 2.3 ms on two OpenCV threads against 0.8 ms on one. Outputs are identical (OpenCV's
@@ -73,7 +73,7 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
     """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks).
 
     Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
-    error and re-raised. Either way everything logged so far is flushed and the sink's logging
+    error and re-raised. Either way everything logged so far is flushed and the sink's image
     thread has stopped, so a saved recording stays readable.
     """
     truth = read_truth(clip.spec.root, [c.name for c in clip.spec.cameras]) \
@@ -86,7 +86,7 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
             sink.warn(f"interrupted after {summary.frames} frames")
         sink.log_summary(summary_figures(sink, summary))
     except Exception as exc:
-        with contextlib.suppress(Exception):  # a logging error already raised: log the rest
+        with contextlib.suppress(Exception):  # if logging itself failed, this may fail too
             sink.event(f"run failed: {type(exc).__name__}: {exc}", rr.TextLogLevel.ERROR)
         with contextlib.suppress(Exception):
             sink.close()

@@ -11,25 +11,30 @@ built (building archetypes costs time even when nothing listens). The sink keeps
 the event log and the ground map need from one frame to the next (previous links, marker
 counts), never the per-frame records.
 
-**Logging thread.** By default (``LogOptions.thread``) the frames are encoded and logged on one
-background thread while the pipeline computes the next frame: JPEG encoding, the SDK's
-serialisation and most numpy work release the GIL, so on two cores logging mostly overlaps the
-pipeline. Everything (frames, events, warnings, the summary) goes through that one thread in
-call order, so the recording is the same as logging inline. At most ``LogOptions.queue_frames``
-results wait (the pipeline blocks beyond that: memory stays flat). The pipeline's records are
-read-only, so handing them to another thread is safe. :meth:`RerunSink.close` (or
-:meth:`RerunSink.drain`) waits for the thread; an exception raised while logging re-raises in
-the caller at the next call.
+**Where the time goes.** Logging runs in the caller's thread, between the pipeline's frames
+(so the cameras' threads, idle then, never wait on it for the GIL). Only the image layers
+(JPEG-encoding the frame, B and D_B, packing the masks and the label image) run on one helper
+thread (``LogOptions.thread``) while the frame's other layers are logged: that work is OpenCV
+and releases the GIL, so the two overlap on two cores. The image layers are logged after the
+other layers of their frame, in the caller's thread, so every layer of a frame is logged when
+:meth:`RerunSink.on_frame` returns and the recording's order is that of the calls (an error on
+the helper thread re-raises there). Segmentation images and JPEGs reach the SDK without copies
+(:func:`~mvtrack.viz.log.segmentation_image`).
+
+A whole-frame logging thread that overlapped the pipeline was tried and dropped: on two cores
+its Python held the GIL while the cameras' threads waited for it, the background stage took
+twice as long, and the run was no faster than logging inline (``mvtrack bench`` on 768x576
+pairs, three alternated runs on a shared machine: sink on / off 0.60-0.64 against 0.72-0.89
+for this design, 27-32 against 10-22 ms more CPU per frame-pair than the run without sink).
 """
 
 from __future__ import annotations
 
 import dataclasses
-import queue
-import threading
 import time
 import uuid
 from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import partial
 from typing import Any
@@ -74,8 +79,8 @@ class LogOptions:
     background_every:  log the background B every N frames (it changes slowly); 0: never
     distance, masks, labels, blobs: per-camera layers on/off
     pairs, ground:     pair layers and the ground map on/off
-    thread:            log on a background thread (same recording, overlaps the pipeline)
-    queue_frames:      results the thread may lag behind the pipeline (>= 1)
+    thread:            encode the image layers on a helper thread while the frame's other
+                       layers are logged (same recording)
     """
 
     images: ImageOptions = dataclasses.field(default_factory=ImageOptions)
@@ -87,58 +92,6 @@ class LogOptions:
     pairs: bool = True
     ground: bool = True
     thread: bool = True
-    queue_frames: int = 3
-
-
-class _LogThread:
-    """One daemon thread running submitted calls in order; errors re-raise in the submitter."""
-
-    def __init__(self, name: str, queue_frames: int) -> None:
-        self._queue: queue.Queue[tuple[Callable[..., None], tuple[Any, ...]] | None] = \
-            queue.Queue(maxsize=max(1, queue_frames))
-        self._error: BaseException | None = None
-        self.busy_seconds = 0.0  # time spent running calls
-        self.thread = threading.Thread(target=self._loop, name=name, daemon=True)
-        self.thread.start()
-
-    def _loop(self) -> None:
-        while True:
-            item = self._queue.get()
-            try:
-                if item is None:
-                    return
-                if self._error is None:  # after an error, drop the rest
-                    start = time.perf_counter()
-                    fn, args = item
-                    fn(*args)
-                    self.busy_seconds += time.perf_counter() - start
-            except BaseException as exc:  # handed to the submitting thread
-                self._error = exc
-            finally:
-                self._queue.task_done()
-
-    def _raise(self) -> None:
-        if self._error is not None:
-            error, self._error = self._error, None
-            raise error
-
-    def submit(self, fn: Callable[..., None], *args: Any) -> None:
-        self._raise()
-        if not self.thread.is_alive():
-            raise RuntimeError("the logging thread was closed")
-        self._queue.put((fn, args))
-
-    def drain(self) -> None:
-        """Wait until every submitted call has run; re-raise the first error."""
-        if self.thread.is_alive():
-            self._queue.join()
-        self._raise()
-
-    def close(self) -> None:
-        if self.thread.is_alive():
-            self._queue.put(None)
-            self.thread.join()
-        self._raise()
 
 
 def new_recording(name: str, deterministic: bool = False) -> rr.RecordingStream:
@@ -233,24 +186,10 @@ class RerunSink:
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
         self._last_keys: dict[str, bytes] = {}  # path -> what was last logged there (log_changed)
         self.frames_logged = 0
-        self.log_seconds = 0.0  # time spent building and handing over frames (any thread)
-        self._thread: _LogThread | None = None
-        self._log_static(params, frames if frames is not None else range(spec.frame_count))
-        self._thread = _LogThread("mvtrack-log", self.options.queue_frames) \
+        self.log_seconds = 0.0  # wall time spent logging frames
+        self._images = ThreadPoolExecutor(1, thread_name_prefix="mvtrack-log-images") \
             if self.options.thread else None
-
-    def _submit(self, fn: Callable[..., None], *args: Any) -> None:
-        """Run ``fn(*args)`` on the logging thread (in order), or now without one."""
-        worker = self._thread
-        if worker is None or threading.current_thread() is worker.thread:
-            fn(*args)
-        else:
-            worker.submit(fn, *args)
-
-    def drain(self) -> None:
-        """Wait until everything handed to the sink is logged (re-raises a logging error)."""
-        if self._thread is not None:
-            self._thread.drain()
+        self._log_static(params, frames if frames is not None else range(spec.frame_count))
 
     # ----------------------------------------------------------------------------- static
 
@@ -314,24 +253,19 @@ class RerunSink:
 
     def event(self, message: str, level: Any = rr.TextLogLevel.INFO) -> None:
         """One line in the event log at the current time (the last logged frame)."""
-        self._submit(self._log_event, message, level)
-
-    def _log_event(self, message: str, level: Any) -> None:
         self.rec.log(paths.EVENTS, rr.TextLog(message, level=level))
 
     # ----------------------------------------------------------------------------- frames
 
     def on_frame(self, result: FrameResult) -> None:
-        """Log every layer of ``result`` (on the logging thread when there is one)."""
-        self._submit(self._log_frame, result)
-
-    def _log_frame(self, result: FrameResult) -> None:
+        """Log every layer of ``result``."""
         start = time.perf_counter()
         rec = self.rec
         rec.set_time(paths.FRAME_TIMELINE, sequence=result.index)
         rec.set_time(paths.TIME_TIMELINE, duration=result.index / self.spec.fps)
         top = max((int(m.max()) for m in result.metas.values() if len(m)), default=0)
         self._grow_metas(top)
+        images = self._images.submit(self._frame_images, result) if self._images else None
         for name, cam in result.cameras.items():
             self._log_camera(name, cam, result.metas[name], result.index)
             rec.log(paths.targets_metric(name), rr.Scalars(float(len(cam.targets))))
@@ -348,34 +282,48 @@ class RerunSink:
             self._log_multi(result)
         if self.options.ground:
             self._log_ground(result, pairs)
+        layers = images.result() if images is not None else self._frame_images(result)
+        for name, cam_layers in layers.items():
+            for layer, archetype in cam_layers:
+                rec.log(paths.camera_layer(name, layer), archetype)
         self.frames_logged += 1
         seconds = time.perf_counter() - start
         self.log_seconds += seconds
         rec.log(paths.log_ms(), rr.Scalars(1000.0 * seconds))
 
-    def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray, index: int) -> None:
-        rec, opts = self.rec, self.options
+    def _camera_images(self, cam: CameraResult, metas: np.ndarray) -> list[tuple[str, Any]]:
+        """(layer, archetype) of a camera's image layers: the frame, B (every
+        ``background_every`` frames), D_B, the masks and the label image. JPEG encoding and
+        the OpenCV packing release the GIL, so this runs beside the other layers' logging."""
+        opts, out = self.options, []
         if cam.image is not None:
-            rec.log(paths.camera_layer(name, "image"), image_layer(cam.image, opts.images))
+            out.append(("image", image_layer(cam.image, opts.images)))
         bg = cam.background
         if bg is not None:
             every = opts.background_every
             if every > 0 and bg.frame_index % every == 0:
-                rec.log(paths.camera_layer(name, "background"),
-                        image_layer(bg.background_bgr, opts.images, draw_order=-20.0))
+                out.append(("background",
+                            image_layer(bg.background_bgr, opts.images, draw_order=-20.0)))
             if opts.distance:
-                rec.log(paths.camera_layer(name, "distance"), distance_layer(bg.distance,
-                                                                            opts.images))
+                out.append(("distance", distance_layer(bg.distance, opts.images)))
             if opts.masks:
-                rec.log(paths.camera_layer(name, "masks"),
-                        masks_layer(bg.mvo_mask, bg.ghost_mask, bg.fg_shadow, bg.ghost_shadow))
-            if opts.blobs:
-                self._log_blobs(name, cam)
+                out.append(("masks", masks_layer(bg.mvo_mask, bg.ghost_mask, bg.fg_shadow,
+                                                 bg.ghost_shadow)))
         tracks = cam.tracks
         if opts.labels and tracks.label_image is not None:
-            rec.log(paths.camera_layer(name, "labels"), segmentation_image(
+            out.append(("labels", segmentation_image(
                 metas_image(tracks.label_image, tracks.labels, metas), opacity=0.45,
-                draw_order=-4.0))
+                draw_order=-4.0)))
+        return out
+
+    def _frame_images(self, result: FrameResult) -> dict[str, list[tuple[str, Any]]]:
+        return {name: self._camera_images(cam, result.metas[name])
+                for name, cam in result.cameras.items()}
+
+    def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray, index: int) -> None:
+        rec, opts = self.rec, self.options
+        if cam.background is not None and opts.blobs:
+            self._log_blobs(name, cam)
         targets = cam.targets
         text = [f"t{t} m{m}" for t, m in zip(targets.labels.tolist(), metas.tolist(), strict=True)]
         boxes = targets.boxes_xywh.copy()
@@ -428,7 +376,6 @@ class RerunSink:
 
     def mean_foot_errors(self) -> dict[str, float]:
         """Per camera, the mean foot error (px) over every matched target so far (truth only)."""
-        self.drain()
         return {k: total / count for k, (total, count) in self._foot_sums.items() if count}
 
     # ----------------------------------------------------------------------------- pairs
@@ -541,14 +488,13 @@ class RerunSink:
     def log_summary(self, values: Mapping[str, float]) -> None:
         """A run's summary figures (``--watch``), static on ``/metrics/summary``."""
         fields: dict[str, Any] = dict(values)
-        self._submit(lambda: self.rec.log(paths.SUMMARY, rr.AnyValues(**fields), static=True))
+        self.rec.log(paths.SUMMARY, rr.AnyValues(**fields), static=True)
 
     def close(self) -> None:
-        """Log everything handed over, stop the logging thread and flush the stream (the caller
-        disconnects or ends it). Re-raises an error raised while logging."""
+        """Stop the image thread and flush the stream (the caller disconnects or ends it)."""
         try:
-            if self._thread is not None:
-                self._thread.close()
+            if self._images is not None:
+                self._images.shutdown()
         finally:
             self.rec.flush()
 

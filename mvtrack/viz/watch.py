@@ -180,7 +180,7 @@ class Watcher:
             summary = self._drive(params, sink, cached)
             sink.log_summary(summary_figures(sink, summary))
         finally:
-            sink.close()  # the logging thread ends with the run
+            sink.close()  # the sink's image thread ends with the run
         self.good = params
         return WatchRun(ran=True, name=name, summary=summary, frontend_cached=cached)
 
