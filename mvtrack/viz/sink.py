@@ -22,10 +22,12 @@ the helper thread re-raises there). Segmentation images and JPEGs reach the SDK 
 (:func:`~mvtrack.viz.log.segmentation_image`).
 
 A whole-frame logging thread that overlapped the pipeline was tried and dropped: on two cores
-its Python held the GIL while the cameras' threads waited for it, the background stage took
-twice as long, and the run was no faster than logging inline (``mvtrack bench`` on 768x576
-pairs, three alternated runs on a shared machine: sink on / off 0.60-0.64 against 0.72-0.89
-for this design, 27-32 against 10-22 ms more CPU per frame-pair than the run without sink).
+its Python held the GIL the cameras' threads waited for, and the background stage took
+about twice as long with the sink on (here it takes the same time on and off). Measured with
+``mvtrack bench`` on a 768x576 pair, five alternated runs each on a shared, busy machine:
+sink on / off 0.60-0.80 (mean 0.68) with that thread, 0.67-0.89 (mean 0.76) with this design;
+logging itself costs about 15 ms of wall time per frame-pair, which is why the run with the
+sink stays well below the one without.
 """
 
 from __future__ import annotations
