@@ -375,3 +375,31 @@ def test_a_homography_that_predicts_people_where_there_are_none_is_dropped(
     else:
         # 3 targets x 2 directions a frame: 40 projections pooled by the 7th frame
         assert dropped_at == -(-cfg.homography.verify_min_expected // 6)
+
+
+def test_after_a_dropped_homography_the_pool_gives_the_true_pairing_at_once() -> None:
+    """A wrong H (30 px off) came with wrong links (4-105, 5-104). People 4, 5, 6 walk by
+    while it is in use (until frame 16), then only person 7. The co-motion pool kept filling
+    while H was in use; verification drops H at frame 7 and refutes its links (they leave the
+    pool for good), and the true pairing is found in that pool and confirmed by person 7.
+    A pool started afresh at the drop would hold two frames of 4, 5, 6: too little support."""
+    cfg = PairConfigs()
+    H = np.array([[1.0, 0, 230.0], [0, 1, 0], [0, 0, 1]])
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    state = replace(state, homography=HomographyEstimate(H, "dlt", 10, np.ones(10, bool),
+                                                         np.zeros(10), 0.0, 0))
+    wrong = [(4, 105), (5, 104)]
+    dropped_at = linked_at = None
+    for f in range(1, 120):
+        a, b = _walkers_seen_twice(f, [4, 5, 6] if f <= 16 else [7])
+        state, res = pair_step(state, a, b, cfg, f, links=wrong if dropped_at is None else [])
+        if not res.homography and dropped_at is None:
+            dropped_at = f
+            assert state.refuted == frozenset(wrong)
+            assert not {tuple(x) for x in state.candidates.labels.tolist()} & set(wrong)
+        made = [(x, y) for x, y, ev in res.associations if ev.kind == "comotion"]
+        if made:
+            linked_at = f
+            assert made == [(7, 107)]
+            break
+    assert dropped_at == 7 and linked_at is not None and linked_at <= 75, linked_at

@@ -149,8 +149,11 @@ class PairState:
                     homography was made, else None
     history:        the last frames' (frame, A targets, B targets), for recording events late
     pending:        events not yet recorded in their point set (crossing time not reached)
-    candidates:     co-motion bootstrap pool, kept only while no homography is valid
+    candidates:     co-motion bootstrap pool (bounded); kept when a hypothesis is accepted, it keeps
+                    pooling while H is valid so that a dropped H can be replaced at once
     hypotheses:     co-motion hypotheses found but not yet confirmed on later candidates
+    refuted:        (A label, B label) pairs linked when verification dropped an H: they never
+                    enter the pool again
     checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
                     well inside the other camera, how many of them had a target there)
     """
@@ -171,6 +174,7 @@ class PairState:
     pending: tuple[PendingEvent, ...] = ()
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
+    refuted: frozenset[tuple[int, int]] = frozenset()
     checks: tuple[tuple[int, int], ...] = ()
 
 
@@ -447,32 +451,22 @@ def _bootstrap(
     told from the other by support; only people who arrive later follow the true one.
     The first confirmed hypothesis links its present target pairs (associations of kind
     "comotion", side "none"), replacing FOV links of the same targets (one event is weaker
-    evidence than many frames), and adds its inlier candidates to the marker store; the pool
-    and the held hypotheses are then emptied.
+    evidence than many frames), and adds its inlier candidates to the marker store; the held
+    hypotheses are then emptied. The pool is kept, and keeps pooling while H is valid: if
+    verification drops that H, its links are refuted (they leave the pool) and the next round
+    searches the rest at once, instead of waiting for new people to walk by.
     Returns (pool, held hypotheses, links, markers, associations made).
     """
     mcfg = cfg.markers
-    if state.homography or mcfg.comotion_min_pairs == 0:
+    if mcfg.comotion_min_pairs == 0:
         return Candidates.empty(), (), links, state.markers, []
-    pool = candidates_add(state.candidates, cams[0], cams[1], mcfg, frame)
+    pool = _without(candidates_add(state.candidates, cams[0], cams[1], mcfg, frame),
+                    state.refuted)
+    if state.homography:
+        return pool, (), links, state.markers, []
     if frame % mcfg.comotion_every_frames or len(pool) < 4:
         return pool, state.hypotheses, links, state.markers, []
-    held: list[Comotion] = []
-    accepted = None
-    for hypothesis in state.hypotheses:
-        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors)
-        if verdict == "confirmed":
-            accepted = checked
-            break
-        if checked is not None:
-            held.append(checked)
-    if accepted is None:
-        rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
-        found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
-        if found is None or mcfg.comotion_confirm_pairs == 0:
-            accepted = found
-        elif all(set(found.links) != set(h.links) for h in held):
-            held = [*held, found][-_MAX_HYPOTHESES:]
+    accepted, held = _review(pool, state.hypotheses, cfg, frame)
     if accepted is None:
         return pool, tuple(held), links, state.markers, []
     present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
@@ -482,8 +476,39 @@ def _bootstrap(
             links = links.add(a_label, b_label, frame)
             made.append((a_label, b_label, FovEvent(frame, state.names[1], b_label, "none",
                                                     "comotion")))
-    return (Candidates.empty(), (), links, markers_add(state.markers, accepted.markers, mcfg),
-            made)
+    return pool, (), links, markers_add(state.markers, accepted.markers, mcfg), made
+
+
+def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs,
+            frame: int) -> tuple[Comotion | None, list[Comotion]]:
+    """One bootstrap round: the first held hypothesis the pool confirms, else a new search.
+    Returns (accepted or None, hypotheses still held)."""
+    mcfg = cfg.markers
+    held: list[Comotion] = []
+    for hypothesis in hypotheses:
+        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors)
+        if verdict == "confirmed":
+            return checked, held
+        if checked is not None:
+            held.append(checked)
+    rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
+    found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
+    if found is None or mcfg.comotion_confirm_pairs == 0:
+        return found, held
+    if all(set(found.links) != set(h.links) for h in held):
+        held = [*held, found][-_MAX_HYPOTHESES:]
+    return None, held
+
+
+def _without(pool: Candidates, refuted: frozenset[tuple[int, int]]) -> Candidates:
+    """The pool without candidates of refuted label pairs."""
+    if not refuted or not len(pool):
+        return pool
+    keep = np.array([(int(x), int(y)) not in refuted for x, y in pool.labels], bool)
+    if keep.all():
+        return pool
+    return Candidates(pool.frame[keep], pool.labels[keep], pool.x_a[keep], pool.x_b[keep],
+                      pool.heights[keep])
 
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
@@ -590,8 +615,11 @@ def pair_step(
         state, markers, cfg.homography, frame)
     fitted = attempt is not None
     checks, dropped = _verify(state, homography, a, b, cfg.homography)
-    if dropped:  # its markers would fit it again: learning starts over
+    refuted = state.refuted
+    if dropped:  # its markers would fit it again: learning starts over, without its links
         homography = HomographyFailure(dropped, len(markers.cells), frame)
+        refuted = refuted | set(marker_links)
+        learned = replace(learned, candidates=_without(learned.candidates, refuted))
         markers, new_links = markers_init(state.sizes[0]), PairLinks()
         attempt, fitted = homography, True
     n_events = state.n_events + len(events)
@@ -617,6 +645,7 @@ def pair_step(
         fit_frame=frame if fitted else state.fit_frame,
         n_events=n_events,
         first_valid=first_valid,
+        refuted=refuted,
         checks=checks,
     )
     result = PairResult(
