@@ -404,7 +404,9 @@ def bench(
         help="Also time the whole pipeline with the viewer sink off and on (saving an .rrd) on "
              "the generated 768x576 two-camera clip (or the first clip given).")] = True,
     log_thread: Annotated[bool, typer.Option(
-        "--log-thread/--no-log-thread", help="Viewer sink logs on its background thread.")] = True,
+        "--log-thread/--no-log-thread",
+        help="Viewer sink encodes its image layers on a helper thread while it logs the rest.",
+    )] = True,
 ) -> None:
     """Front-end throughput (camera-frames/s) against OpenCV MOG2, memory growth, and the
     viewer's logging cost (frame-pairs/s off and on, KiB per frame-pair, ms per stage)."""
