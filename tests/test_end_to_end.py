@@ -39,7 +39,7 @@ def metrics(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any
 
 
 def test_front_end_finds_people_and_their_feet(metrics: dict[str, dict[str, Any]]) -> None:
-    """Measured: recall 0.961 / 0.942, precision 0.935 / 0.924, feet p90 10.7 / 12.8 px (legs
+    """Measured: recall 0.961 / 0.942, precision 0.943 / 0.943, feet p90 10.8 / 12.8 px (legs
     of gray trousers were called shadow before: p90 16.0 / 19.2). Issue 3 asks 0.95 / 0.95."""
     for cam in metrics["homography"]["cameras"].values():
         assert cam["recall"] >= 0.92 and cam["precision"] >= 0.9, cam
@@ -62,13 +62,15 @@ def test_pair_geometry_is_learned_from_people_walking(
 
 
 def test_homography_matcher_beats_the_fov_baseline(metrics: dict[str, dict[str, Any]]) -> None:
-    """Measured, labels resolved over the whole run (tracks.csv): IDF1 0.937 against 0.536 for
-    FOV lines alone, consistency 0.992 (issue 5 asks 0.95 / 0.98). As assigned online
-    (tracks_online.csv): 0.782 against 0.520, consistency 0.663, because people in both views
-    from frame 0 cannot share a label online before H exists (frame 125)."""
+    """Measured, labels resolved over the whole run (tracks.csv): IDF1 0.944 against 0.845 for
+    FOV lines alone, consistency 0.992 against 0.760 (issue 5 asks 0.95 / 0.98). As assigned
+    online (tracks_online.csv): 0.807 against 0.759, consistency 0.693 against 0.576: people
+    in both views from frame 0 cannot share a label online before H exists (frame 125)."""
     h, f = metrics["homography"]["labels"], metrics["fov"]["labels"]
-    assert h["idf1_global"] >= f["idf1_global"] + 0.2, (h["idf1_global"], f["idf1_global"])
-    assert h["idf1_global"] >= 0.9 and h["consistency"] >= 0.98, h
-    h, f = metrics["homography"]["labels_online"], metrics["fov"]["labels_online"]
     assert h["idf1_global"] >= f["idf1_global"] + 0.05, (h["idf1_global"], f["idf1_global"])
-    assert h["idf1_global"] >= 0.75 and h["consistency"] >= 0.6, h
+    assert h["consistency"] >= f["consistency"] + 0.15, (h["consistency"], f["consistency"])
+    assert h["idf1_global"] >= 0.92 and h["consistency"] >= 0.98, h
+    h, f = metrics["homography"]["labels_online"], metrics["fov"]["labels_online"]
+    assert h["idf1_global"] >= f["idf1_global"] + 0.02, (h["idf1_global"], f["idf1_global"])
+    assert h["consistency"] >= f["consistency"] + 0.05, (h["consistency"], f["consistency"])
+    assert h["idf1_global"] >= 0.78 and h["consistency"] >= 0.65, h

@@ -10,6 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mvtrack.params import MatcherConfig
+from mvtrack.stages.fov import FovEvent
 from mvtrack.stages.homography import HomographyEstimate, HomographyFailure
 from mvtrack.stages.matcher import (
     MatchInputs,
@@ -152,6 +153,17 @@ def test_fov_mode_keeps_fov_links_whatever_h_says() -> None:
     b = targets([5], [(300, 250)])
     _state, results = run([(a, b)] * 30, cfg=replace(CFG, method="fov"), assoc={0: [(1, 5)]})
     assert results[-1].pairs() == ((1, 5),) and results[-1].broken == ()
+
+
+def test_fov_mode_takes_fov_events_only() -> None:
+    """The Khan & Shah baseline links on FOV events, not on the co-motion bootstrap."""
+    a, b = targets([1, 2], [(10, 100), (10, 200)]), targets([5, 6], [(300, 250), (300, 50)])
+    events = [(1, 5, FovEvent(0, "B", 5, "left", "enter")),
+              (2, 6, FovEvent(0, "B", 6, "none", "comotion"))]
+    for method, linked in (("fov", ((1, 5),)), ("homography", ((1, 5), (2, 6)))):
+        _state, results = run([(a, b)], cfg=replace(CFG, method=method),
+                              h=HomographyFailure("none yet", 0, 0), assoc={0: events})
+        assert results[0].pairs() == linked, method
 
 
 def test_confirmations_count_evidence() -> None:

@@ -18,7 +18,8 @@ so one threshold works at every depth. With it the pair's one-to-one links are
   ``confirm_frames`` frames (in-scene entrances, no FOV event needed); re-attach and create take
   only unambiguous pairs (every rival at least ``create_margin_heights`` further);
 - added from FOV associations (the only source with ``method == "fov"`` or before H exists;
-  with H, an association it contradicts (d >= ``keep_threshold_heights``) is rejected).
+  with H, an association it contradicts (d >= ``keep_threshold_heights``) is rejected). The
+  FOV-only baseline takes those of FOV events alone, not the co-motion bootstrap's.
 
 Targets projected inside the other frame without a partner are "expected but unseen".
 
@@ -257,14 +258,17 @@ def _prune(state: MatchState, f: _Frame, frame: int, window: int) -> tuple[dict,
 
 
 def _add_fov(f: _Frame, associations: Sequence[tuple], frame: int,
-             gate: tuple[np.ndarray, float] | None) -> None:
-    """FOV associations between present, unlinked targets become links.
+             gate: tuple[np.ndarray, float] | None, fov_only: bool) -> None:
+    """FOV associations between present, unlinked targets become links (``fov_only``: only
+    those of FOV events, not the co-motion bootstrap's).
 
     ``gate``: (cost, threshold) when H drives matching: an association H contradicts
     (d >= threshold) is rejected at once rather than linked and broken later; one it does not
     is confirmed (this runs after :func:`_refine`, which freed the targets of broken links).
     """
     for assoc in associations:
+        if fov_only and len(assoc) > 2 and assoc[2].kind == "comotion":
+            continue  # the FOV-only baseline (Khan & Shah) links on FOV events alone
         a, b = int(assoc[0]), int(assoc[1])
         linked = any(link.a == a or link.b == b for link in f.links)
         if a not in f.index_a or b not in f.index_b or linked:
@@ -382,7 +386,7 @@ def match_step(state: MatchState, inputs: MatchInputs,
     if use_h:
         _refine(f, cost, cfg)
     _add_fov(f, inputs.associations, frame,
-             (cost, cfg.keep_threshold_heights) if use_h else None)
+             (cost, cfg.keep_threshold_heights) if use_h else None, cfg.method == "fov")
     if use_h:
         _reattach(f, cost, state, lost, cfg, frame)
         pending, shown = _create(f, cost, state, cfg, frame)
