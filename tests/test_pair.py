@@ -371,7 +371,7 @@ def test_a_homography_that_predicts_people_where_there_are_none_is_dropped(
             assert res.attempt is res.homography and len(state.markers.cells) == 0
     if kept:
         assert dropped_at is None and state.homography
-        assert sum(f for _, f in state.checks) == sum(e for e, _ in state.checks) > 100
+        assert sum(f for _, f, _ in state.checks) == sum(e for e, _, _ in state.checks) > 100
     else:
         # 3 targets x 2 directions a frame: 40 projections pooled by the 7th frame
         assert dropped_at == -(-cfg.homography.verify_min_expected // 6)
@@ -403,3 +403,25 @@ def test_after_a_dropped_homography_the_pool_gives_the_true_pairing_at_once() ->
             assert made == [(7, 107)]
             break
     assert dropped_at == 7 and linked_at is not None and linked_at <= 75, linked_at
+
+
+@pytest.mark.parametrize("min_targets, kept", [(3, True), (1, False)])
+def test_one_target_the_other_camera_never_sees_does_not_drop_h(min_targets: int,
+                                                                kept: bool) -> None:
+    """A correct H (B sees A shifted by (200, 10)); A's only target stands where B should see
+    it, but B never does (a ghost in A, or a person B's front end misses). Every projection
+    misses, yet one target is evidence against its own detection, not against H: the H is
+    kept unless ``verify_min_targets`` allows a single target to drop it."""
+    cfg = PairConfigs()
+    cfg = replace(cfg, homography=replace(cfg.homography, verify_min_targets=min_targets))
+    H = np.array([[1.0, 0, 200.0], [0, 1, 10.0], [0, 0, 1]])
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    state = replace(state, homography=HomographyEstimate(H, "dlt", 10, np.ones(10, bool),
+                                                         np.zeros(10), 0.0, 0))
+    a, _ = _walkers_seen_twice(0, [9])
+    b = CameraTargets.empty((640, 480))
+    for f in range(1, 80):
+        state, _ = pair_step(state, a, b, cfg, f)
+    assert bool(state.homography) == kept
+    if not kept:
+        assert "(1 targets missed)" in state.homography.reason

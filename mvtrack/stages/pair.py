@@ -155,7 +155,8 @@ class PairState:
     refuted:        (A label, B label) pairs linked when verification dropped an H: they never
                     enter the pool again
     checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
-                    well inside the other camera, how many of them had a target there)
+                    well inside the other camera, how many of them had a target there, the
+                    (camera index, label) of those that had none)
     """
 
     names: tuple[str, str]
@@ -175,7 +176,7 @@ class PairState:
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
     refuted: frozenset[tuple[int, int]] = frozenset()
-    checks: tuple[tuple[int, int], ...] = ()
+    checks: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = ()
 
 
 @dataclass(frozen=True)
@@ -512,15 +513,18 @@ def _without(pool: Candidates, refuted: frozenset[tuple[int, int]]) -> Candidate
 
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
-           cfg: HomographyConfig) -> tuple[int, int]:
-    """(expected, found): targets fully inside their own frame that H projects at least
-    ``_VERIFY_MARGIN_PX`` inside the other one, and how many of them have a target there within
-    ``verify_gate_heights`` (symmetric transfer distance, :func:`transfer_costs`)."""
+           cfg: HomographyConfig) -> tuple[int, int, tuple[tuple[int, int], ...]]:
+    """(expected, found, missed): targets fully inside their own frame that H projects at least
+    ``_VERIFY_MARGIN_PX`` inside the other one, how many of them have a target there within
+    ``verify_gate_heights`` (symmetric transfer distance, :func:`transfer_costs`), and the
+    (camera index, label) of the others."""
     if not len(a) and not len(b):
-        return 0, 0
+        return 0, 0, ()
     cost, a_in_b, b_in_a = transfer_costs(H_b_from_a, a, b)
     expected = found = 0
-    for own, proj, other, near in ((a, a_in_b, b, cost), (b, b_in_a, a, cost.T)):
+    missed: list[tuple[int, int]] = []
+    for side, (own, proj, other, near) in enumerate(
+            ((a, a_in_b, b, cost), (b, b_in_a, a, cost.T))):
         width, height = other.size
         m = _VERIFY_MARGIN_PX
         inside = (~own.touches(0.0).any(axis=1) & (proj[:, 0] > m) & (proj[:, 0] < width - m)
@@ -529,22 +533,27 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
                                                                                         bool)
         expected += int(inside.sum())
         found += int((inside & has).sum())
-    return expected, found
+        missed += [(side, int(label)) for label in own.labels[inside & ~has].tolist()]
+    return expected, found, tuple(missed)
 
 
 def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
             a: CameraTargets, b: CameraTargets, cfg: HomographyConfig
-            ) -> tuple[tuple[tuple[int, int], ...], str]:
+            ) -> tuple[tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...], str]:
     """This frame's check of a valid H added to the pooled ones, and why H must be dropped
-    ("" while it holds): too few of its projections find a target where it puts them."""
+    ("" while it holds): too few of its projections find a target where it puts them, and
+    the misses come from at least ``verify_min_targets`` targets."""
     if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
         return (), ""
     checks = (*state.checks, _check(homography.H_b_from_a, a, b, cfg))[-cfg.verify_frames :]
-    expected = sum(e for e, _ in checks)
-    found = sum(f for _, f in checks)
-    if expected >= cfg.verify_min_expected and found < cfg.verify_min_found_frac * expected:
+    expected = sum(e for e, _, _ in checks)
+    found = sum(f for _, f, _ in checks)
+    missing = {key for _, _, missed in checks for key in missed}
+    if (expected >= cfg.verify_min_expected and found < cfg.verify_min_found_frac * expected
+            and len(missing) >= cfg.verify_min_targets):
         return (), (f"dropped: over {len(checks)} frames H put {expected} targets inside the "
-                    f"other camera and {found} had a target there")
+                    f"other camera and {found} had a target there ({len(missing)} targets "
+                    f"missed)")
     return checks, ""
 
 
