@@ -280,7 +280,8 @@ def track(
         with progress_bar("tracking") as update:
             summary = run(opened, resolved, rng, [writer], progress=update, priors=priors)
         writer.close(run_info(opened.spec, resolved, rng, summary), summary.pairs)
-        if resolved.resolve.labels == "whole_run":
+        whole_run = resolved.resolve.labels == "whole_run"
+        if whole_run:
             resolve_results(out_dir, summary.pairs, resolved)
         for warning in opened.warnings[len(opened.spec.warnings):]:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)
@@ -289,7 +290,7 @@ def track(
         raise typer.Exit(code=130)
     out.print(f"tracked {summary.frames} frames of {len(opened.spec.cameras)} cameras "
               f"-> {out_dir}")
-    if resolved.resolve.labels == "whole_run":
+    if whole_run:
         out.print("labels resolved over the whole run; as assigned frame by frame (what "
                   "mvtrack-view shows): tracks_online.csv")
 

@@ -313,7 +313,7 @@ def resolve_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Para
     final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
              for p in pairs]
     res = resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov")
-    rewrite_labels(out_dir, res.meta, res.cue_meta)
+    rewrite_labels(out_dir, rows, res.meta, res.cue_meta)
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

@@ -57,12 +57,8 @@ class ResultsWriter:
             t = cam.targets
             metas = result.metas[name]
             for i, label in enumerate(t.labels.tolist()):
-                x, y, w, h = t.boxes_xywh[i]
-                fx, fy = t.feet[i]
-                self._csv.writerow([
-                    result.index, name, label, int(metas[i]), f"{fx:.2f}", f"{fy:.2f}",
-                    f"{x:.1f}", f"{y:.1f}", f"{w:.1f}", f"{h:.1f}", f"{t.heights_px[i]:.2f}",
-                ])
+                self._csv.writerow(_track_row(result.index, name, label, int(metas[i]),
+                                              (*t.feet[i], *t.boxes_xywh[i], t.heights_px[i])))
             if self.mask_every and result.index % self.mask_every == 0 and cam.background:
                 self._write_mask(name, result.index, cam)
         for cue in getattr(result, "cues", ()):
@@ -88,21 +84,28 @@ class ResultsWriter:
             (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
 
 
-def rewrite_labels(out_dir: Path, meta: np.ndarray,
+def _track_row(frame: int, camera: str, target: int, meta: int,
+               numbers: tuple[float, ...]) -> list[Any]:
+    """One `tracks.csv` row; ``numbers``: foot_x, foot_y, box_x, box_y, box_w, box_h, height."""
+    return [frame, camera, target, meta,
+            *(f"{v:.{d}f}" for v, d in zip(numbers, (2, 2, 1, 1, 1, 1, 2), strict=True))]
+
+
+def rewrite_labels(out_dir: Path, rows: TrackRows, meta: np.ndarray,
                    cue_meta: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> None:
-    """Give `tracks.csv` the metas ``meta`` (one per row, in file order) and `cues.csv` the
-    metas ``cue_meta(frames, online metas)``; the originals become `*_online.csv`.
+    """Write ``rows`` (`tracks.csv` as read) again with the metas ``meta``, and `cues.csv` with
+    the metas ``cue_meta(frames, online metas)``; the originals become `*_online.csv`.
 
     Cue rows that now name one meta twice in a frame and camera are merged (expected or seen
     by either). Each file is written beside the original, then renamed over it.
     """
     out_dir = Path(out_dir)
-    tracks = _csv_rows(out_dir / "tracks.csv", TRACKS_HEADER)
-    if len(tracks) != len(meta):
-        raise ValueError(f"{out_dir / 'tracks.csv'}: {len(tracks)} rows, {len(meta)} metas")
-    meta_col = TRACKS_HEADER.index("meta")
-    for row, m in zip(tracks, meta.tolist(), strict=True):
-        row[meta_col] = str(m)
+    if len(rows.frame) != len(meta):
+        raise ValueError(f"{out_dir / 'tracks.csv'}: {len(rows.frame)} rows, {len(meta)} metas")
+    numbers = np.c_[rows.feet, rows.boxes_xywh, rows.height].tolist()
+    tracks = [_track_row(f, c, t, m, tuple(n)) for f, c, t, m, n in zip(
+        rows.frame.tolist(), rows.camera.tolist(), rows.target.tolist(), meta.tolist(), numbers,
+        strict=True)]
     cues = _csv_rows(out_dir / "cues.csv", CUES_HEADER)
     frames = np.array([int(r[0]) for r in cues], np.int64)
     new = cue_meta(frames, np.array([int(r[1]) for r in cues], np.int64))

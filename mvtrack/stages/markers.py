@@ -248,6 +248,14 @@ class Candidates:
     def __len__(self) -> int:
         return len(self.frame)
 
+    def without(self, pairs: frozenset[tuple[int, int]]) -> Candidates:
+        """The pool without the candidates of these (A label, B label) pairs."""
+        keep = np.array([(x, y) not in pairs for x, y in self.labels.tolist()], bool)
+        if keep.all():
+            return self
+        return Candidates(self.frame[keep], self.labels[keep], self.x_a[keep], self.x_b[keep],
+                          self.heights[keep])
+
 
 @dataclass(frozen=True)
 class Comotion:
@@ -265,16 +273,22 @@ class Comotion:
 
 
 def candidates_add(
-    pool: Candidates, a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int
+    pool: Candidates, a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int,
+    exclude: frozenset[tuple[int, int]] = frozenset(),
 ) -> Candidates:
-    """The pool with every (A, B) pair of fully-inside targets of this frame (bounded)."""
+    """The pool with every (A, B) pair of fully-inside targets of this frame (bounded), but
+    the (A label, B label) pairs in ``exclude``."""
     if frame % cfg.marker_every_frames or not len(a) or not len(b):
         return pool
     ia = np.flatnonzero(_inside(a, cfg))
     ib = np.flatnonzero(_inside(b, cfg))
-    if not len(ia) or not len(ib):
-        return pool
     ga, gb = (g.ravel() for g in np.meshgrid(ia, ib, indexing="ij"))
+    if exclude:
+        ok = [(x, y) not in exclude
+              for x, y in zip(a.labels[ga].tolist(), b.labels[gb].tolist(), strict=True)]
+        ga, gb = ga[ok], gb[ok]
+    if not len(ga):
+        return pool
     keep = slice(-cfg.comotion_pool_size, None)
     return Candidates(
         np.r_[pool.frame, np.full(len(ga), frame)][keep],

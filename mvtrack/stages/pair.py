@@ -461,8 +461,7 @@ def _bootstrap(
     mcfg = cfg.markers
     if mcfg.comotion_min_pairs == 0:
         return Candidates.empty(), (), links, state.markers, []
-    pool = _without(candidates_add(state.candidates, cams[0], cams[1], mcfg, frame),
-                    state.refuted)
+    pool = candidates_add(state.candidates, cams[0], cams[1], mcfg, frame, state.refuted)
     if state.homography:
         return pool, (), links, state.markers, []
     if frame % mcfg.comotion_every_frames or len(pool) < 4:
@@ -499,17 +498,6 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
     if all(set(found.links) != set(h.links) for h in held):
         held = [*held, found][-_MAX_HYPOTHESES:]
     return None, held
-
-
-def _without(pool: Candidates, refuted: frozenset[tuple[int, int]]) -> Candidates:
-    """The pool without candidates of refuted label pairs."""
-    if not refuted or not len(pool):
-        return pool
-    keep = np.array([(int(x), int(y)) not in refuted for x, y in pool.labels], bool)
-    if keep.all():
-        return pool
-    return Candidates(pool.frame[keep], pool.labels[keep], pool.x_a[keep], pool.x_b[keep],
-                      pool.heights[keep])
 
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
@@ -628,7 +616,7 @@ def pair_step(
     if dropped:  # its markers would fit it again: learning starts over, without its links
         homography = HomographyFailure(dropped, len(markers.cells), frame)
         refuted = refuted | set(marker_links)
-        learned = replace(learned, candidates=_without(learned.candidates, refuted))
+        learned = replace(learned, candidates=learned.candidates.without(refuted))
         markers, new_links = markers_init(state.sizes[0]), PairLinks()
         attempt, fitted = homography, True
     n_events = state.n_events + len(events)

@@ -100,23 +100,34 @@ def _nodes(rows: Rows) -> list[Node]:
     return list(zip(rows.camera.tolist(), rows.target.tolist(), strict=True))
 
 
-def _homography_votes(rows: Rows, nodes: list[Node], names: tuple[str, str], H: np.ndarray,
-                      gate: float) -> Counter[tuple[Node, Node]]:
-    """Per frame, the gated assignment of the pair's targets on the transfer distance."""
-    votes: Counter[tuple[Node, Node]] = Counter()
+def _frames(rows: Rows) -> list[np.ndarray]:
+    """Row indices of each frame, frames in order."""
     order = np.argsort(rows.frame, kind="stable")
     frames = rows.frame[order]
-    starts = np.flatnonzero(np.r_[True, frames[1:] != frames[:-1]])
-    for chunk in np.split(order, starts[1:]):
+    return np.split(order, np.flatnonzero(frames[1:] != frames[:-1]) + 1) if len(order) else []
+
+
+def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
+                      names: tuple[str, str], H: np.ndarray, cfg: ResolveConfig
+                      ) -> list[tuple[int, Node, Node]]:
+    """(votes, A target, B target) of the pairs that pass ``min_votes`` and
+    ``min_vote_share``: per frame, the gated assignment of the pair's targets on the
+    transfer distance, counted against the frames both targets were present."""
+    votes: Counter[tuple[Node, Node]] = Counter()
+    together: Counter[tuple[Node, Node]] = Counter()
+    for chunk in frames:
         ia = chunk[rows.camera[chunk] == names[0]]
         ib = chunk[rows.camera[chunk] == names[1]]
         if not len(ia) or not len(ib):
             continue
+        together.update((nodes[i], nodes[k]) for i in ia.tolist() for k in ib.tolist())
         cost, _, _ = symmetric_transfer(H, rows.feet[ia], rows.height[ia], rows.feet[ib],
                                         rows.height[ib])
-        for i, k, _ in gated_assignment(cost, range(len(ia)), range(len(ib)), gate):
+        for i, k, _ in gated_assignment(cost, range(len(ia)), range(len(ib)),
+                                        cfg.vote_gate_heights):
             votes[(nodes[ia[i]], nodes[ib[k]])] += 1
-    return votes
+    return [(v, x, y) for (x, y), v in votes.items()
+            if v >= cfg.min_votes and v >= cfg.min_vote_share * together[(x, y)]]
 
 
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
@@ -205,17 +216,15 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     use_h: False for the FOV-only baseline: every pair keeps the run's own links
     """
     nodes = _nodes(rows)
+    frames = _frames(rows)
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
     without_h: set[frozenset[str]] = set()
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
             continue
-        votes = _homography_votes(rows, nodes, (a, b), np.asarray(H, np.float64),
-                                  cfg.vote_gate_heights)
-        both = _present_together(rows, nodes, (a, b)) if votes else Counter()
-        scored += [(0, v, x, y, "homography") for (x, y), v in votes.items()
-                   if v >= cfg.min_votes and v >= cfg.min_vote_share * both[(x, y)]]
+        scored += [(0, v, x, y, "homography") for v, x, y in _homography_votes(
+            rows, nodes, frames, (a, b), np.asarray(H, np.float64), cfg)]
     cross, same = _online_links(rows, nodes, without_h, cfg)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
@@ -230,15 +239,3 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     return Resolution(meta, tuple(links),
                       {k: c.most_common(1)[0][0] for k, c in mapping.items()})
 
-
-def _present_together(rows: Rows, nodes: list[Node],
-                      names: tuple[str, str]) -> Counter[tuple[Node, Node]]:
-    """Frames each (A target, B target) were both present."""
-    per_frame: dict[int, tuple[list[Node], list[Node]]] = {}
-    for f, n in zip(rows.frame.tolist(), nodes, strict=True):
-        if n[0] in names:
-            per_frame.setdefault(f, ([], []))[names.index(n[0])].append(n)
-    out: Counter[tuple[Node, Node]] = Counter()
-    for a, b in per_frame.values():
-        out.update((x, y) for x in a for y in b)
-    return out
