@@ -291,8 +291,8 @@ def track(
     out.print(f"tracked {summary.frames} frames of {len(opened.spec.cameras)} cameras "
               f"-> {out_dir}")
     if whole_run:
-        out.print("labels resolved over the whole run; as assigned frame by frame (what "
-                  "mvtrack-view shows): tracks_online.csv")
+        out.print("labels resolved over the whole run; as assigned frame by frame: "
+                  "tracks_online.csv")
 
 
 def _fmt(value: Any) -> str:

@@ -50,10 +50,13 @@ from mvtrack.stages.pair import (
     pair_step,
     pair_summary,
 )
-from mvtrack.stages.resolve import resolve_labels
+from mvtrack.stages.resolve import Resolution, Rows, resolve_labels
 from mvtrack.stages.targets import CameraTargets
 
-__all__ = ["CameraResult", "CameraStep", "FrameResult", "Pipeline", "RunSummary", "Sink", "run"]
+__all__ = [
+    "CameraResult", "CameraStep", "FrameResult", "Pipeline", "RunSummary", "Sink",
+    "resolve_results", "resolve_rows", "run",
+]
 
 STAGES = ("read", "background", "tracker", "feet", "pairs", "metas")
 """Stage names in timing tables, in pipeline order."""
@@ -306,13 +309,19 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
     }
 
 
-def resolve_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params) -> None:
-    """Rewrite a finished results directory with whole-run labels (`stages/resolve.py`), from
-    its `tracks.csv`, `cues.csv` and the pairs' final homographies (`pairs.json` objects)."""
-    rows = read_tracks(Path(out_dir) / "tracks.csv")
+def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params) -> Resolution:
+    """Whole-run labels (`stages/resolve.py`) of a run's target rows, with the pairs' final
+    homographies (`pairs.json` objects); the FOV-only matcher resolves without them."""
     final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
              for p in pairs]
-    res = resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov")
+    return resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov")
+
+
+def resolve_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params) -> None:
+    """Rewrite a finished results directory with whole-run labels (:func:`resolve_rows`) from
+    its `tracks.csv` and `cues.csv`."""
+    rows = read_tracks(Path(out_dir) / "tracks.csv")
+    res = resolve_rows(rows, pairs, params)
     rewrite_labels(out_dir, rows, res.meta, res.cue_meta)
 
 

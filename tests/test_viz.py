@@ -163,7 +163,9 @@ def test_every_logged_path_is_documented(recording: dict[str, Any]) -> None:
 
 
 @pytest.fixture(scope="module")
-def pair_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, Any], Any]:
+def pair_recording(tmp_path_factory: pytest.TempPathFactory
+                   ) -> tuple[dict[str, Any], Any, Path, Path]:
+    """(entities, run summary, clip directory, .rrd) of 100 frames of the 'pair' scenario."""
     gen = pytest.importorskip("mvtrack.generate")
     if not hasattr(gen, "generate_clip"):
         pytest.skip("mvtrack.generate.generate_clip is not available")
@@ -172,11 +174,11 @@ def pair_recording(tmp_path_factory: pytest.TempPathFactory) -> tuple[dict[str, 
                              image_format="png")
     rrd = root / "pair.rrd"
     summary = _record(Path(clip), rrd)
-    return read_entities(rrd), summary
+    return read_entities(rrd), summary, Path(clip), rrd
 
 
-def test_pair_layers(pair_recording: tuple[dict[str, Any], Any]) -> None:
-    rec, summary = pair_recording
+def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> None:
+    rec, summary, *_ = pair_recording
     a, b = "cam0", "cam1"
     for layer in ("markers", "links"):
         assert rec[paths.pair_layer(a, b, layer)]["rows"] == 100
@@ -198,6 +200,45 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any]) -> None:
     if info["H"] is not None:
         assert rec[paths.pair_layer(a, b, "quality_px")]["rows"] >= 1
         assert rec[paths.camera_pair_layer(b, "projected", a)]["rows"] >= 1
+
+
+def _resolved_boxes(rrd: Path, cam: str) -> dict[int, list[str]]:
+    """Frame -> labels of the boxes on ``/cameras/{cam}/resolved`` (latest row per frame)."""
+    out: dict[int, list[str]] = {}
+    for chunk in RrdReader(rrd).store().stream().to_chunks():
+        if str(chunk.entity_path) != paths.camera_layer(cam, "resolved"):
+            continue
+        rb = chunk.to_record_batch()
+        if "frame" in rb.schema.names:
+            for f, labels in zip(rb.column("frame").to_pylist(),
+                                 rb.column("Boxes2D:labels").to_pylist(), strict=True):
+                out[f] = list(labels or [])
+    return out
+
+
+def test_resolved_layer_shows_what_mvtrack_track_writes(
+        pair_recording: tuple[dict[str, Any], Any, Path, Path], tmp_path: Path) -> None:
+    """The viewer's whole-run layer marks exactly the rows whose meta `mvtrack track` changed
+    (tracks.csv against tracks_online.csv), with the new meta, and is empty on other frames."""
+    from mvtrack.cli import app as track_app
+    from mvtrack.io.results import read_tracks
+
+    _, _, clip, rrd = pair_recording
+    out = tmp_path / "res"
+    sets = [a for s in ("background.train_frames=20", "fov.min_fov_events=2")
+            for a in ("--set", s)]
+    result = CliRunner().invoke(track_app, ["track", str(clip), "--out", str(out), *sets])
+    assert result.exit_code == 0, result.output
+    final, online = read_tracks(out / "tracks.csv"), read_tracks(out / "tracks_online.csv")
+    changed = final.meta != online.meta
+    assert changed.sum() > 0  # 100 frames of 'pair': people linked only after they met
+    for cam in ("cam0", "cam1"):
+        expected: dict[int, list[str]] = {f: [] for f in range(100)}
+        for i in np.flatnonzero(changed & (final.camera == cam)):
+            expected[int(final.frame[i])].append(f"t{final.target[i]} → m{final.meta[i]}")
+        shown = _resolved_boxes(rrd, cam)
+        assert {f: sorted(v) for f, v in shown.items()} == \
+            {f: sorted(v) for f, v in expected.items()}
 
 
 # ------------------------------------------------------------------------------- blueprints
@@ -240,7 +281,7 @@ def test_blueprints_build_for_any_number_of_cameras(name: str, n_cams: int) -> N
 
 @pytest.mark.parametrize("name", sorted(viewer_blueprints.BLUEPRINTS))
 def test_blueprints_refer_only_to_logged_paths(
-        name: str, pair_recording: tuple[dict[str, Any], Any]) -> None:
+        name: str, pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> None:
     logged = set(pair_recording[0])
     bp = viewer_blueprints.build(name, ["cam0", "cam1"], [("cam0", "cam1")])
     for p in _view_paths(bp):

@@ -106,6 +106,9 @@ def test_watch_reruns_caches_and_survives_invalid_files(watcher: Watcher, tmp_pa
         if str(chunk.entity_path) == paths.SUMMARY:
             names |= set(chunk.to_record_batch().schema.names)
     assert {"frames", "pipeline_fps", "foot_error_px.cam0"} <= names
+    # and, like mvtrack-view, its whole-run labels once the run is over
+    for name in files:
+        assert any(t.startswith("whole-run labels: ") for t in _texts(runs / name)), name
 
 
 def test_describe_change_names_what_changed() -> None:

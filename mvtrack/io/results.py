@@ -23,8 +23,8 @@ import cv2
 import numpy as np
 
 __all__ = [
-    "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "TrackRows",
-    "read_cues", "read_pairs", "read_tracks", "rewrite_labels",
+    "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
+    "TrackRows", "read_cues", "read_pairs", "read_tracks", "rewrite_labels",
 ]
 
 TRACKS_HEADER = (
@@ -82,6 +82,33 @@ class ResultsWriter:
         (self.out_dir / "run.json").write_text(json.dumps(run_info, indent=2) + "\n")
         if pairs is not None:
             (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
+
+
+class RowsCollector:
+    """A sink that keeps every target row in memory as `tracks.csv` would store it (same
+    rounding), for whole-run label resolution without a results directory (the viewer)."""
+
+    def __init__(self) -> None:
+        self._parts: list[tuple[np.ndarray, ...]] = []
+
+    def on_frame(self, result: Any) -> None:
+        """Keep one :class:`~mvtrack.pipeline.FrameResult`'s targets."""
+        for name, cam in result.cameras.items():
+            t = cam.targets
+            n = len(t.labels)
+            if n:
+                self._parts.append((
+                    np.full(n, result.index, np.int64), np.full(n, name), t.labels.astype(np.int64),
+                    np.asarray(result.metas[name], np.int64), np.round(t.feet, 2),
+                    np.round(t.boxes_xywh, 1), np.round(t.heights_px, 2)))
+
+    def rows(self) -> TrackRows:
+        """Every row kept so far, in frame order."""
+        if not self._parts:
+            return TrackRows(np.zeros(0, np.int64), np.zeros(0, str), np.zeros(0, np.int64),
+                             np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros((0, 4)),
+                             np.zeros(0))
+        return TrackRows(*(np.concatenate(col) for col in zip(*self._parts, strict=True)))
 
 
 def _track_row(frame: int, camera: str, target: int, meta: int,

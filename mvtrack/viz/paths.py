@@ -24,6 +24,10 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
                                     label "t{target} m{meta}"
     /cameras/{cam}/feet             Points2D: feet, class id = meta
+    /cameras/{cam}/resolved         Boxes2D: whole-run labels, logged for every frame once the
+                                    run ends, on the targets whose whole-run meta differs from
+                                    their online one: class id = that meta, label "t{target} →
+                                    m{meta}" (the labels `mvtrack track` writes to tracks.csv)
     /cameras/{cam}/fov_events       Points2D: feet of targets at FOV events this frame, labelled
     /cameras/{cam}/fov_lines/{other}  LineStrips2D: the learned FOV lines of camera ``other``'s
                                     edges, seen in ``cam``
@@ -128,7 +132,7 @@ SUMMARY = "/metrics/summary"
 
 CAMERA_LAYERS = (
     "image", "background", "distance", "masks", "labels", "blobs", "targets", "feet",
-    "fov_events", "cues",
+    "resolved", "fov_events", "cues",
 )
 """Layers of a camera that have no second camera in their path."""
 

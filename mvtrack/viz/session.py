@@ -16,12 +16,16 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from mvtrack.io import Clip, read_truth
+from mvtrack.io.results import RowsCollector
 from mvtrack.params import Params
-from mvtrack.pipeline import RunSummary, run
+from mvtrack.pipeline import RunSummary, Sink, resolve_rows, run
 from mvtrack.stages.pair import PairPrior
 from mvtrack.viz.sink import LogOptions, RerunSink
 
-__all__ = ["layout_for", "one_opencv_thread", "record_run", "summary_figures"]
+__all__ = [
+    "layout_for", "log_whole_run", "one_opencv_thread", "record_run", "rows_for_resolution",
+    "summary_figures",
+]
 
 
 def layout_for(layout: str, cameras: Sequence[str], pairs: Sequence[tuple[str, str]]
@@ -64,13 +68,27 @@ def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
     return figures
 
 
+def rows_for_resolution(params: Params) -> RowsCollector | None:
+    """A sink keeping the run's target rows when labels are resolved over the whole run."""
+    return RowsCollector() if params.resolve.labels == "whole_run" else None
+
+
+def log_whole_run(sink: RerunSink, rows: RowsCollector | None, summary: RunSummary,
+                  params: Params) -> None:
+    """After a run: its whole-run labels (as `mvtrack track` writes them) on the sink."""
+    if rows is not None:
+        kept = rows.rows()
+        sink.log_resolved(kept, resolve_rows(kept, summary.pairs, params).meta)
+
+
 def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keyword options)
     clip: Clip, params: Params, frames: range, rec: rr.RecordingStream,
     options: LogOptions | None = None, *,
     progress: Callable[[int, int], None] | None = None,
     priors: Mapping[tuple[str, str], PairPrior] | None = None,
 ) -> tuple[RerunSink, RunSummary]:
-    """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks).
+    """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks),
+    then, with ``resolve.labels = "whole_run"``, the whole-run labels (``/cameras/*/resolved``).
 
     Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
     error and re-raised. Either way everything logged so far is flushed and the sink's image
@@ -79,11 +97,14 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
     truth = read_truth(clip.spec.root, [c.name for c in clip.spec.cameras]) \
         if clip.spec.truth_dir else None
     sink = RerunSink(rec, clip.spec, params, options, truth=truth, frames=frames)
+    rows = rows_for_resolution(params)
+    sinks: list[Sink] = [sink] if rows is None else [sink, rows]
     try:
         with one_opencv_thread():
-            summary = run(clip, params, frames, [sink], progress=progress, priors=priors)
+            summary = run(clip, params, frames, sinks, progress=progress, priors=priors)
         if summary.interrupted:
             sink.warn(f"interrupted after {summary.frames} frames")
+        log_whole_run(sink, rows, summary, params)
         sink.log_summary(summary_figures(sink, summary))
     except Exception as exc:
         with contextlib.suppress(Exception):  # if logging itself failed, this may fail too

@@ -45,6 +45,7 @@ import numpy as np
 import rerun as rr
 
 from mvtrack.io import ClipSpec, Truth
+from mvtrack.io.results import TrackRows
 from mvtrack.params import Params, dump_params
 from mvtrack.pipeline import CameraResult, FrameResult
 from mvtrack.viz import paths
@@ -188,6 +189,7 @@ class RerunSink:
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
         self._last_keys: dict[str, bytes] = {}  # path -> what was last logged there (log_changed)
         self.frames_logged = 0
+        self.logged_frames: tuple[int, int] | None = None  # first and last frame logged
         self.log_seconds = 0.0  # wall time spent logging frames
         self._images = ThreadPoolExecutor(1, thread_name_prefix="mvtrack-log-images") \
             if self.options.thread else None
@@ -289,6 +291,8 @@ class RerunSink:
             for layer, archetype in cam_layers:
                 rec.log(paths.camera_layer(name, layer), archetype)
         self.frames_logged += 1
+        first = result.index if self.logged_frames is None else self.logged_frames[0]
+        self.logged_frames = (first, result.index)
         seconds = time.perf_counter() - start
         self.log_seconds += seconds
         rec.log(paths.log_ms(), rr.Scalars(1000.0 * seconds))
@@ -486,6 +490,45 @@ class RerunSink:
             labels=[f"p{p}" for p in world.person[rows].tolist()]))
 
     # ----------------------------------------------------------------------------- end
+
+    def log_resolved(self, rows: TrackRows, meta: np.ndarray) -> None:
+        """Whole-run labels (``meta``, one per row of ``rows``, the run's targets with their
+        online metas) on ``/cameras/{cam}/resolved``: a box in the resolved meta's colour,
+        labelled "t3 → m7" under the online label, on every target whose resolved meta differs
+        from the one it carried online, for every frame logged. One columnar send per camera,
+        after the run."""
+        if len(meta) != len(rows.frame):
+            raise ValueError(f"log_resolved: {len(rows.frame)} rows but {len(meta)} metas")
+        if self.logged_frames is None:
+            return
+        first, last = self.logged_frames
+        frames = np.arange(first, last + 1)
+        changed = (meta != rows.meta) & (rows.frame >= first) & (rows.frame <= last)
+        self._grow_metas(int(meta.max(initial=0)) + 1)
+        for cam in self.spec.cameras:
+            sel = np.flatnonzero(changed & (rows.camera == cam.name))
+            if not len(sel):
+                continue
+            path = paths.camera_layer(cam.name, "resolved")
+            # Rerun writes a box's label under it: the resolved box is 2 px larger and reaches
+            # 5 % of the frame height further down, so its label sits under the online one.
+            x, y, w, h = rows.boxes_xywh[sel].T
+            x, y, below = x + 0.5, y + 0.5, 0.05 * cam.size[1]  # +0.5: Rerun's pixel grid
+            lo, hi = np.c_[x - 2.0, y - 2.0], np.c_[x + w + 2.0, y + h + 2.0 + below]
+            text = [f"t{t} → m{m}" for t, m in zip(rows.target[sel].tolist(),
+                                                   meta[sel].tolist(), strict=True)]
+            columns = rr.Boxes2D.columns(
+                centers=(lo + hi) / 2, half_sizes=(hi - lo) / 2,
+                class_ids=meta[sel], labels=text, radii=np.full(len(sel), 2.0),
+            ).partition(np.bincount(rows.frame[sel] - first, minlength=len(frames)))
+            self.rec.log(path, rr.Boxes2D.from_fields(draw_order=12.0), static=True)
+            rr.send_columns(path, indexes=[
+                rr.TimeColumn(paths.FRAME_TIMELINE, sequence=frames),
+                rr.TimeColumn(paths.TIME_TIMELINE, duration=frames / self.spec.fps),
+            ], columns=columns, recording=self.rec)
+        self.event(f"whole-run labels: {int(changed.sum())} of {len(meta)} target rows carry "
+                   "another meta than they had online, drawn as thick boxes labelled "
+                   "'t → m' (/cameras/*/resolved); `mvtrack track` writes these to tracks.csv")
 
     def log_summary(self, values: Mapping[str, float]) -> None:
         """A run's summary figures (``--watch``), static on ``/metrics/summary``."""

@@ -29,11 +29,12 @@ import numpy as np
 import rerun as rr
 
 from mvtrack.io import Clip, Detections, read_truth
+from mvtrack.io.results import RowsCollector
 from mvtrack.params import Params, ParamsError, load_params
 from mvtrack.pipeline import CameraResult, Pipeline, RunSummary, train_backgrounds
 from mvtrack.viz import paths
 from mvtrack.viz.outputs import Outputs, Target, open_outputs
-from mvtrack.viz.session import layout_for, summary_figures
+from mvtrack.viz.session import layout_for, log_whole_run, rows_for_resolution, summary_figures
 from mvtrack.viz.sink import LogOptions, RerunSink, new_recording
 
 __all__ = [
@@ -176,15 +177,18 @@ class Watcher:
                          frames=self.frames)
         cached = self.cache_enabled and self._cache_key == front_end_key(params) \
             and len(self._cache) == len(self.frames)
+        rows = rows_for_resolution(params)
         try:
-            summary = self._drive(params, sink, cached)
+            summary = self._drive(params, sink, cached, rows)
+            log_whole_run(sink, rows, summary, params)
             sink.log_summary(summary_figures(sink, summary))
         finally:
             sink.close()  # the sink's image thread ends with the run
         self.good = params
         return WatchRun(ran=True, name=name, summary=summary, frontend_cached=cached)
 
-    def _drive(self, params: Params, sink: RerunSink, cached: bool) -> RunSummary:
+    def _drive(self, params: Params, sink: RerunSink, cached: bool,
+               rows: RowsCollector | None) -> RunSummary:
         spec = self.clip.spec
         summary = RunSummary()
         steps: Iterator[tuple[int, Mapping[str, np.ndarray], Mapping[str, Detections]]]
@@ -206,6 +210,8 @@ class Watcher:
                 if not cached and self.cache_enabled:
                     self._cache[index] = dict(result.cameras)
                 sink.on_frame(result)
+                if rows is not None:
+                    rows.on_frame(result)
                 for stage, ms in result.stage_ms.items():
                     summary.stage_seconds[stage] = summary.stage_seconds.get(stage, 0.0) + ms / 1e3
                 summary.frames += 1
@@ -213,6 +219,7 @@ class Watcher:
             summary.interrupted = True
             self._cache = {}
             raise
+        summary.pairs = pipeline.pair_summaries()
         return summary
 
     def close(self) -> None:
