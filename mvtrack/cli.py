@@ -335,17 +335,19 @@ def _json_safe(value: Any) -> Any:
 
 
 def _print_flat(title: str, figures: dict[str, Any]) -> None:
-    """The scalar figures of a metrics section, one per row; nested ones as key.sub."""
+    """The scalar figures of a metrics section, one per row; nested ones as key.sub(.sub)."""
     table = Table(title=title)
     table.add_column("figure")
     table.add_column("value")
-    for key, value in figures.items():
-        if isinstance(value, dict):
-            for sub, v in value.items():
-                if not isinstance(v, dict | list):
-                    table.add_row(f"{key}.{sub}", _fmt(v))
-        elif not isinstance(value, list):
-            table.add_row(key, _fmt(value))
+
+    def add(prefix: str, items: dict[str, Any]) -> None:
+        for key, value in items.items():
+            if isinstance(value, dict):
+                add(f"{prefix}{key}.", value)
+            elif not isinstance(value, list):
+                table.add_row(f"{prefix}{key}", _fmt(value))
+
+    add("", figures)
     out.print(table)
 
 

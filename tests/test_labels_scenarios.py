@@ -231,6 +231,10 @@ def test_three_cameras_one_label_through_the_middle() -> None:
     m, run = scores("three")
     assert all(bool(p.homography) for p in run.last.pairs.values())
     assert m["consistency"] >= 0.85, m
+    by_pair = m["consistency_by_pair"]  # cam0 and cam1 never see a person at the same time
+    assert set(by_pair) == {"cam0-cam2", "cam1-cam2"}, by_pair
+    assert min(p["consistency"] for p in by_pair.values()) >= 0.85, by_pair
+    assert sum(p["pairs"] for p in by_pair.values()) == m["consistency_pairs"], by_pair
     assert m["idf1_global"] >= 0.8, m
 
 
@@ -274,6 +278,7 @@ def test_label_figures_hand_built() -> None:
     good = hand_run(1)
     assert good["idf1_global"] == pytest.approx(1.0)
     assert good["consistency"] == pytest.approx(1.0) and good["consistency_pairs"] == 28
+    assert good["consistency_by_pair"] == {"cam0-cam1": {"consistency": 1.0, "pairs": 28}}
     assert good["metas_per_person"] == 1.0
     assert good["occlusion_episodes"] == 1 and good["occlusion_recovery"] == 1.0
     # cue rows: (15, cam0) right, (15, cam1) expected but absent in truth, (30, cam1) missed
@@ -282,4 +287,5 @@ def test_label_figures_hand_built() -> None:
     bad = hand_run(3)
     assert bad["idf1_global"] == pytest.approx(2 * 50 / (68 + 68))
     assert bad["consistency"] == pytest.approx(10 / 28)
+    assert bad["consistency_by_pair"]["cam0-cam1"]["consistency"] == pytest.approx(10 / 28)
     assert bad["metas_per_person"] == 2.0 and bad["occlusion_recovery"] == 0.0

@@ -4,7 +4,8 @@ From the clip's truth and a run's `tracks.csv` (and `cues.csv`):
 
 - ``idf1_global``: IDF1 of ``meta`` against truth people, every camera's rows together;
 - ``consistency``: of the (frame, person) pairs matched in two or more cameras, the share whose
-  targets all carry one ``meta``;
+  targets all carry one ``meta``; ``consistency_by_pair``: the same for each two cameras ("a-b":
+  share and count), which tells the pair that fails when there are more than two;
 - ``fragmentation``: distinct metas matched to a person (mean over people; 1 is ideal);
 - ``occlusion_recovery``: episodes where a person vanished from one camera for at least
   ``min_gap_frames`` while seen in another; the share that came back with the same ``meta``;
@@ -99,15 +100,22 @@ def _global_idf1(truth: Truth, rows: TrackRows, cameras: list[str], frames: rang
     return idf1(cat(preds), cat(truths), cfg.gate_heights, cfg.min_visible)
 
 
-def _consistency(m: Matched) -> dict[str, float]:
-    groups: dict[tuple[int, int], list[tuple[int, int]]] = {}
+def _consistency(m: Matched, cameras: list[str]) -> dict[str, Any]:
+    groups: dict[tuple[int, int], dict[int, int]] = {}
     for f, c, p, meta in zip(m.frame.tolist(), m.camera.tolist(), m.person.tolist(),
                              m.meta.tolist(), strict=True):
-        groups.setdefault((f, p), []).append((c, meta))
-    multi = [g for g in groups.values() if len({c for c, _ in g}) >= 2]
-    same = sum(len({meta for _, meta in g}) == 1 for g in multi)
+        groups.setdefault((f, p), {})[c] = meta
+    multi = [g for g in groups.values() if len(g) >= 2]
+    same = sum(len(set(g.values())) == 1 for g in multi)
+    by_pair: dict[str, dict[str, float]] = {}
+    for i, a in enumerate(cameras):
+        for j in range(i + 1, len(cameras)):
+            both = [g[i] == g[j] for g in multi if i in g and j in g]
+            if both:
+                by_pair[f"{a}-{cameras[j]}"] = {"consistency": sum(both) / len(both),
+                                                "pairs": len(both)}
     return {"consistency": same / len(multi) if multi else float("nan"),
-            "consistency_pairs": len(multi)}
+            "consistency_pairs": len(multi), "consistency_by_pair": by_pair}
 
 
 def _fragmentation(m: Matched) -> dict[str, float]:
@@ -259,7 +267,7 @@ def label_metrics(truth: Truth, rows: TrackRows, frames: range, cues: CueRows | 
     g = _global_idf1(truth, rows, cameras, frames, cfg)
     out: dict[str, Any] = {"idf1_global": g["idf1"], "idp_global": g["idp"],
                            "idr_global": g["idr"], "cameras": cameras}
-    out |= _consistency(m) | _fragmentation(m)
+    out |= _consistency(m, cameras) | _fragmentation(m)
     out |= _occlusion_recovery(m, _visible_sets(truth, cameras, frames, cfg), cfg)
     if cues is not None:
         out |= _cueing(m, cues, truth, cameras, frames)
