@@ -191,11 +191,14 @@ def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
     wrong = Comotion(np.array([[1.0, 0, 230], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
                      45)
     assert comotion_confirm(pool, wrong, cfg, transfer_errors) == ("rejected", None)
-    # With no own evidence and no confirmation, it is dropped after comotion_confirm_frames.
+    # With no own evidence and no confirmation, it waits comotion_confirm_frames, then is
+    # accepted as it was (verification judges it from there), or dropped when so configured.
     stale = Comotion(wrong.H_b_from_a, ((7, 107),), (), 0)
     assert comotion_confirm(pool, stale, cfg, transfer_errors)[0] == "waiting"
     short = MarkerConfig(comotion_confirm_frames=50)
-    assert comotion_confirm(pool, stale, short, transfer_errors) == ("rejected", None)
+    assert comotion_confirm(pool, stale, short, transfer_errors) == ("confirmed", stale)
+    strict = MarkerConfig(comotion_confirm_frames=50, comotion_accept_unrefuted=False)
+    assert comotion_confirm(pool, stale, strict, transfer_errors) == ("rejected", None)
     off = MarkerConfig(comotion_confirm_pairs=0)
     assert comotion_confirm(pool, wrong, off, transfer_errors) == ("confirmed", wrong)
 

@@ -516,7 +516,8 @@ def comotion_confirm(
     least ``comotion_confirm_pairs`` one-to-one target pairs follow it again
     (``comotion_confirm_support`` inliers each, mostly inliers); "rejected", None when one of
     its own pairs has that many new candidates but mostly outliers (it stopped explaining its
-    own evidence) or ``comotion_confirm_frames`` passed without confirmation; else
+    own evidence); once ``comotion_confirm_frames`` passed with neither, "confirmed" with the
+    hypothesis unchanged if ``comotion_accept_unrefuted``, else "rejected"; before that,
     "waiting", the hypothesis unchanged.
     """
     if cfg.comotion_confirm_pairs == 0:
@@ -539,6 +540,8 @@ def comotion_confirm(
                     (inlier & own).sum() < cfg.comotion_min_frac * n_own):
                 return "rejected", None
         if int(pool.frame.max()) - hypothesis.since > cfg.comotion_confirm_frames:
+            if cfg.comotion_accept_unrefuted:
+                return "confirmed", hypothesis
             return "rejected", None
     return "waiting", hypothesis
 
