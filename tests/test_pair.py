@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from mvtrack.evaluate.pairs import EVAL_SIDES, fov_segment, line_error_px
+from mvtrack.params import load_params
 from mvtrack.stages.homography import HomographyEstimate, apply_homography
 from mvtrack.stages.markers import Comotion
 from mvtrack.stages.pair import PairConfigs, PairState, pair_init, pair_step, pair_summary
@@ -348,6 +349,29 @@ def test_a_held_swap_does_not_block_the_true_pairing() -> None:
             break
         assert len(state.hypotheses) <= 3
     assert linked_at is not None and linked_at <= 75
+
+
+@pytest.mark.parametrize("accept_pairs", [4, 0])
+def test_a_hypothesis_four_pairs_follow_needs_no_held_out_check(accept_pairs: int) -> None:
+    """Four people walking through both views: the first co-motion search (frame 25, five
+    candidates per pair) links them at once when four pairs with five inliers each are enough
+    (``comotion_accept_pairs``, ``comotion_accept_support``); with the held-out check for
+    every hypothesis (0) the links wait for the next search's new candidates."""
+    cfg = PairConfigs.from_params(load_params(None, [
+        f"markers.comotion_accept_pairs={accept_pairs}", "markers.comotion_accept_support=5"]))
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    linked_at = None
+    for f in range(1, 120):
+        a, b = _walkers_seen_twice(f, [4, 5, 6, 7])
+        state, res = pair_step(state, a, b, cfg, f)
+        made = [(x, y) for x, y, ev in res.associations if ev.kind == "comotion"]
+        if made:
+            linked_at = f
+            assert sorted(made) == [(4, 104), (5, 105), (6, 106), (7, 107)]
+            break
+    every = cfg.markers.comotion_every_frames
+    assert linked_at is not None
+    assert linked_at % every == 0 and (linked_at < 2 * every) == (accept_pairs == 4), linked_at
 
 
 @pytest.mark.parametrize("shift, kept", [((200.0, 10.0), True), ((230.0, 0.0), False)])

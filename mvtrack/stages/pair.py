@@ -15,6 +15,7 @@ Nothing here uses calibration or ground truth.
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
@@ -493,11 +494,21 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
             held.append(checked)
     rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
     found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
-    if found is None or mcfg.comotion_confirm_pairs == 0:
+    if found is None or mcfg.comotion_confirm_pairs == 0 or _strong(found, mcfg):
         return found, held
     if all(set(found.links) != set(h.links) for h in held):
         held = [*held, found][-_MAX_HYPOTHESES:]
     return None, held
+
+
+def _strong(found: Comotion, cfg: MarkerConfig) -> bool:
+    """Whether at least ``comotion_accept_pairs`` of the hypothesis's target pairs follow it
+    with ``comotion_accept_support`` inlier candidates each (it needs no held-out check)."""
+    if cfg.comotion_accept_pairs <= 0:
+        return False
+    per_pair = Counter((m.a_label, m.b_label) for m in found.markers)
+    strong = sum(n >= cfg.comotion_accept_support for n in per_pair.values())
+    return strong >= cfg.comotion_accept_pairs
 
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
