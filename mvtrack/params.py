@@ -440,11 +440,6 @@ class MarkerConfig(_Checked):
         3, "bootstrap: held-out check: inlier candidates each confirming target pair needs",
         1, 100000,
     )
-    # Where few people pass, a right hypothesis can wait for held-out evidence that never comes:
-    # on 'tilted' generated with --seed 1 the held H had no new candidate of its own pairs for
-    # 210 frames and was dropped, and the pair never learned one (IDF1 0.547, consistency
-    # 0.020). Accepted instead, it was refitted to 3.0/13.2 px (IDF1 0.948, consistency
-    # 0.974); a wrong one is dropped by verification (homography.verify_*) like any other H.
     # The held-out check guards hypotheses that just meet comotion_min_pairs; one that more
     # pairs follow, each with more support, is accepted at once. On 'pair' generated with
     # --seed 2 a wrong H was dropped at frame 532; the search found the true pairing of four
@@ -461,13 +456,18 @@ class MarkerConfig(_Checked):
         6, "bootstrap: inlier candidates each of those comotion_accept_pairs pairs needs", 1,
         100000,
     )
+    # Where few people pass, a right hypothesis can wait for held-out evidence that never comes:
+    # on 'tilted' generated with --seed 1 the held H had no new candidate of its own pairs for
+    # 210 frames and was dropped, and the pair never learned one (IDF1 0.547, consistency
+    # 0.020). Accepted instead, it was refitted to 3.0/13.2 px (IDF1 0.948, consistency
+    # 0.974); a wrong one is dropped by verification (homography.verify_*) like any other H.
     comotion_accept_unrefuted: bool = param(
         True, "bootstrap: a hypothesis neither confirmed nor refuted within "
         "comotion_confirm_frames is accepted (verification can still drop it), else dropped",
     )
     comotion_confirm_frames: int = param(
-        100, "bootstrap: held-out check: a hypothesis not confirmed within this many frames is "
-        "dropped", 1, 1000000,
+        100, "bootstrap: held-out check: a hypothesis neither confirmed nor refuted within this "
+        "many frames is accepted or dropped (comotion_accept_unrefuted)", 1, 1000000,
     )
 
 

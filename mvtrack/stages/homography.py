@@ -403,9 +403,9 @@ def fit_homography(
     ``cfg.method`` "dlt": normalized DLT on all markers. "robust": RANSAC (``rng``, default
     seeded from ``cfg.ransac_seed``), then normalized DLT on the consensus set, refined to a
     fixed point (:func:`_local_optimization`). The degeneracy rule is applied to the markers
-    and again to the inliers. ``groups`` (N,) int: which target pair (link) dropped each marker; the
-    inliers must then come from at least ``cfg.min_marker_groups`` of them (the markers of one
-    or two straight walks can be fitted by a wrong H). Returns a falsy
+    and again to the inliers. ``groups`` (N,) int: which target pair (link) dropped each
+    marker; the inliers must then come from at least ``cfg.min_marker_groups`` of them (the
+    markers of one or two straight walks can be fitted by a wrong H). Returns a falsy
     :class:`HomographyFailure` when no trustworthy H exists.
     """
     pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
