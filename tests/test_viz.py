@@ -144,7 +144,9 @@ def test_metrics_and_events(recording: dict[str, Any]) -> None:
     assert recording[paths.GROUND_TRUTH]["rows"] == N_FRAMES  # metres: truth/ground.json
     outline = recording[paths.ground_fov("cam0")]  # logged from frame 0, then on changes
     assert 0 in outline["frames"] and 1 <= outline["rows"] < N_FRAMES
-    assert recording[paths.SUMMARY]["static"] == 1
+    summary = recording[paths.SUMMARY]
+    assert summary["static"] == 1  # the figures --watch compares, labels scored on the truth
+    assert {"frames", "idf1_global", "consistency", "idf1_global_online"} <= summary["columns"]
 
 
 def test_every_logged_path_is_documented(recording: dict[str, Any]) -> None:

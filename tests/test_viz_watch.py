@@ -105,7 +105,8 @@ def test_watch_reruns_caches_and_survives_invalid_files(watcher: Watcher, tmp_pa
     for chunk in RrdReader(runs / "w-run3.rrd").store().stream().to_chunks():
         if str(chunk.entity_path) == paths.SUMMARY:
             names |= set(chunk.to_record_batch().schema.names)
-    assert {"frames", "pipeline_fps", "foot_error_px.cam0"} <= names
+    assert {"frames", "pipeline_fps", "foot_error_px.cam0", "idf1_global", "consistency",
+            "idf1_global_online", "consistency_online"} <= names
     # and, like mvtrack-view, its whole-run labels once the run is over
     for name in files:
         assert any(t.startswith("whole-run labels: ") for t in _texts(runs / name)), name

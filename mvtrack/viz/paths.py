@@ -72,7 +72,9 @@ Events and metrics::
     /metrics/log_ms                 Scalars: milliseconds spent logging the frame
     /metrics/foot_error_px/{cam}    Scalars: mean foot error vs truth (truth clips only)
     /metrics/transfer_error_px/{a}-{b}  Scalars: median transfer error of H on true feet
-    /metrics/summary                AnyValues: a run's summary figures (``--watch``)
+    /metrics/summary                AnyValues: a run's summary figures: frames, pipeline_fps,
+                                    foot_error_px.{cam}; with truth idf1_global, consistency
+                                    (and *_online) of the labels (``--watch`` compares them)
 
 Coordinates: Rerun draws pixel (0, 0) over [0, 1] x [0, 1]; mvtrack's pixel centres are at integer
 coordinates (FORMATS.md), so every point, box and line is logged shifted by +0.5 px.

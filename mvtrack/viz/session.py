@@ -9,22 +9,23 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
+from dataclasses import replace
 from pathlib import Path
 
 import cv2
 import rerun as rr
 import rerun.blueprint as rrb
 
+from mvtrack.evaluate.labels import label_metrics
 from mvtrack.io import Clip, read_truth
 from mvtrack.io.results import RowsCollector
 from mvtrack.params import Params
-from mvtrack.pipeline import RunSummary, Sink, resolve_rows, run
+from mvtrack.pipeline import RunSummary, resolve_rows, run
 from mvtrack.stages.pair import PairPrior
 from mvtrack.viz.sink import LogOptions, RerunSink
 
 __all__ = [
-    "layout_for", "log_whole_run", "one_opencv_thread", "record_run", "rows_for_resolution",
-    "summary_figures",
+    "finish_run", "layout_for", "one_opencv_thread", "record_run", "summary_figures",
 ]
 
 
@@ -68,17 +69,28 @@ def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
     return figures
 
 
-def rows_for_resolution(params: Params) -> RowsCollector | None:
-    """A sink keeping the run's target rows when labels are resolved over the whole run."""
-    return RowsCollector() if params.resolve.labels == "whole_run" else None
-
-
-def log_whole_run(sink: RerunSink, rows: RowsCollector | None, summary: RunSummary,
-                  params: Params) -> None:
-    """After a run: its whole-run labels (as `mvtrack track` writes them) on the sink."""
-    if rows is not None:
-        kept = rows.rows()
-        sink.log_resolved(kept, resolve_rows(kept, summary.pairs, params).meta)
+def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary,
+               params: Params) -> dict[str, float]:
+    """After a run: the whole-run labels on the sink (with ``resolve.labels = "whole_run"``,
+    as `mvtrack track` writes them), then the run's figures on ``/metrics/summary``
+    (:func:`summary_figures`) and, when the clip has truth, ``idf1_global`` and
+    ``consistency`` of the labels as `mvtrack track` writes them (and ``*_online`` of the
+    labels as assigned frame by frame, when those differ): the numbers ``--watch`` compares."""
+    kept = rows.rows()
+    labels = {"": kept.meta}
+    if params.resolve.labels == "whole_run":
+        meta = resolve_rows(kept, summary.pairs, params).meta
+        sink.log_resolved(kept, meta)
+        labels = {"": meta, "_online": kept.meta}
+    figures = summary_figures(sink, summary)
+    if sink.truth is not None and sink.logged_frames is not None and len(kept.frame):
+        first, last = sink.logged_frames
+        for suffix, meta in labels.items():
+            m = label_metrics(sink.truth, replace(kept, meta=meta), range(first, last + 1))
+            figures[f"idf1_global{suffix}"] = float(m["idf1_global"])
+            figures[f"consistency{suffix}"] = float(m["consistency"])
+    sink.log_summary(figures)
+    return figures
 
 
 def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keyword options)
@@ -88,7 +100,7 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
     priors: Mapping[tuple[str, str], PairPrior] | None = None,
 ) -> tuple[RerunSink, RunSummary]:
     """Run the pipeline over ``frames`` logging into ``rec`` (already connected to its sinks),
-    then, with ``resolve.labels = "whole_run"``, the whole-run labels (``/cameras/*/resolved``).
+    then :func:`finish_run` (whole-run labels, summary figures).
 
     Ctrl-C stops cleanly (``summary.interrupted``); an exception is logged to ``/events`` as an
     error and re-raised. Either way everything logged so far is flushed and the sink's image
@@ -97,15 +109,13 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
     truth = read_truth(clip.spec.root, [c.name for c in clip.spec.cameras]) \
         if clip.spec.truth_dir else None
     sink = RerunSink(rec, clip.spec, params, options, truth=truth, frames=frames)
-    rows = rows_for_resolution(params)
-    sinks: list[Sink] = [sink] if rows is None else [sink, rows]
+    rows = RowsCollector()
     try:
         with one_opencv_thread():
-            summary = run(clip, params, frames, sinks, progress=progress, priors=priors)
+            summary = run(clip, params, frames, [sink, rows], progress=progress, priors=priors)
         if summary.interrupted:
             sink.warn(f"interrupted after {summary.frames} frames")
-        log_whole_run(sink, rows, summary, params)
-        sink.log_summary(summary_figures(sink, summary))
+        finish_run(sink, rows, summary, params)
     except Exception as exc:
         with contextlib.suppress(Exception):  # if logging itself failed, this may fail too
             sink.event(f"run failed: {type(exc).__name__}: {exc}", rr.TextLogLevel.ERROR)

@@ -34,7 +34,7 @@ from mvtrack.params import Params, ParamsError, load_params
 from mvtrack.pipeline import CameraResult, Pipeline, RunSummary, train_backgrounds
 from mvtrack.viz import paths
 from mvtrack.viz.outputs import Outputs, Target, open_outputs
-from mvtrack.viz.session import layout_for, log_whole_run, rows_for_resolution, summary_figures
+from mvtrack.viz.session import finish_run, layout_for
 from mvtrack.viz.sink import LogOptions, RerunSink, new_recording
 
 __all__ = [
@@ -177,18 +177,17 @@ class Watcher:
                          frames=self.frames)
         cached = self.cache_enabled and self._cache_key == front_end_key(params) \
             and len(self._cache) == len(self.frames)
-        rows = rows_for_resolution(params)
+        rows = RowsCollector()
         try:
             summary = self._drive(params, sink, cached, rows)
-            log_whole_run(sink, rows, summary, params)
-            sink.log_summary(summary_figures(sink, summary))
+            finish_run(sink, rows, summary, params)
         finally:
             sink.close()  # the sink's image thread ends with the run
         self.good = params
         return WatchRun(ran=True, name=name, summary=summary, frontend_cached=cached)
 
     def _drive(self, params: Params, sink: RerunSink, cached: bool,
-               rows: RowsCollector | None) -> RunSummary:
+               rows: RowsCollector) -> RunSummary:
         spec = self.clip.spec
         summary = RunSummary()
         steps: Iterator[tuple[int, Mapping[str, np.ndarray], Mapping[str, Detections]]]
@@ -210,8 +209,7 @@ class Watcher:
                 if not cached and self.cache_enabled:
                     self._cache[index] = dict(result.cameras)
                 sink.on_frame(result)
-                if rows is not None:
-                    rows.on_frame(result)
+                rows.on_frame(result)
                 for stage, ms in result.stage_ms.items():
                     summary.stage_seconds[stage] = summary.stage_seconds.get(stage, 0.0) + ms / 1e3
                 summary.frames += 1
