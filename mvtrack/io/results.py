@@ -32,6 +32,8 @@ TRACKS_HEADER = (
     "box_x", "box_y", "box_w", "box_h", "height",
 )
 CUES_HEADER = ("frame", "meta", "camera", "expected", "seen")
+_FEET_DP, _BOX_DP, _HEIGHT_DP = 2, 1, 2
+"""Decimal places of `tracks.csv`'s feet, box and height columns."""
 
 
 class ResultsWriter:
@@ -99,8 +101,8 @@ class RowsCollector:
             if n:
                 self._parts.append((
                     np.full(n, result.index, np.int64), np.full(n, name), t.labels.astype(np.int64),
-                    np.asarray(result.metas[name], np.int64), np.round(t.feet, 2),
-                    np.round(t.boxes_xywh, 1), np.round(t.heights_px, 2)))
+                    np.asarray(result.metas[name], np.int64), np.round(t.feet, _FEET_DP),
+                    np.round(t.boxes_xywh, _BOX_DP), np.round(t.heights_px, _HEIGHT_DP)))
 
     def rows(self) -> TrackRows:
         """Every row kept so far, in frame order."""
@@ -114,8 +116,9 @@ class RowsCollector:
 def _track_row(frame: int, camera: str, target: int, meta: int,
                numbers: tuple[float, ...]) -> list[Any]:
     """One `tracks.csv` row; ``numbers``: foot_x, foot_y, box_x, box_y, box_w, box_h, height."""
+    places = (_FEET_DP,) * 2 + (_BOX_DP,) * 4 + (_HEIGHT_DP,)
     return [frame, camera, target, meta,
-            *(f"{v:.{d}f}" for v, d in zip(numbers, (2, 2, 1, 1, 1, 1, 2), strict=True))]
+            *(f"{v:.{d}f}" for v, d in zip(numbers, places, strict=True))]
 
 
 def rewrite_labels(out_dir: Path, rows: TrackRows, meta: np.ndarray,

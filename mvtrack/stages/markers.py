@@ -250,7 +250,7 @@ class Candidates:
 
     def without(self, pairs: frozenset[tuple[int, int]]) -> Candidates:
         """The pool without the candidates of these (A label, B label) pairs."""
-        keep = np.array([(x, y) not in pairs for x, y in self.labels.tolist()], bool)
+        keep = _not_in(pairs, self.labels[:, 0], self.labels[:, 1])
         if keep.all():
             return self
         return Candidates(self.frame[keep], self.labels[keep], self.x_a[keep], self.x_b[keep],
@@ -272,6 +272,13 @@ class Comotion:
     since: int = -1
 
 
+def _not_in(pairs: frozenset[tuple[int, int]], a_labels: np.ndarray,
+            b_labels: np.ndarray) -> np.ndarray:
+    """(N,) bool: (a_labels[i], b_labels[i]) is not one of ``pairs``."""
+    return np.array([(x, y) not in pairs
+                     for x, y in zip(a_labels.tolist(), b_labels.tolist(), strict=True)], bool)
+
+
 def candidates_add(
     pool: Candidates, a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int,
     exclude: frozenset[tuple[int, int]] = frozenset(),
@@ -284,8 +291,7 @@ def candidates_add(
     ib = np.flatnonzero(_inside(b, cfg))
     ga, gb = (g.ravel() for g in np.meshgrid(ia, ib, indexing="ij"))
     if exclude:
-        ok = [(x, y) not in exclude
-              for x, y in zip(a.labels[ga].tolist(), b.labels[gb].tolist(), strict=True)]
+        ok = _not_in(exclude, a.labels[ga], b.labels[gb])
         ga, gb = ga[ok], gb[ok]
     if not len(ga):
         return pool

@@ -196,7 +196,7 @@ def transfer_costs(
 
 
 def gated_assignment(cost: np.ndarray, rows: Sequence[int], cols: Sequence[int],
-                      gate: float, margin: float = 0.0) -> list[tuple[int, int, float]]:
+                     gate: float, margin: float = 0.0) -> list[tuple[int, int, float]]:
     """Minimum-cost one-to-one assignment of ``rows`` x ``cols`` of ``cost``, each pair < gate
     and at least ``margin`` below every other entry of its row and column (unambiguous)."""
     if not len(rows) or not len(cols):
@@ -329,7 +329,7 @@ def _reattach(f: _Frame, cost: np.ndarray, state: MatchState, lost: tuple[dict, 
             rows = [i for i in free_a if frame - born_a[labels_a[i]] <= max_age]
             cols = [j for j in free_b if labels_b[j] in lost[1]]
         for i, j, d in gated_assignment(cost, rows, cols, cfg.match_threshold_heights,
-                                         cfg.create_margin_heights):
+                                        cfg.create_margin_heights):
             a, b = labels_a[i], labels_b[j]
             f.links.append(Link(a, b, "reattach", frame, confirmations=1))
             f.reattached.append((a, b, d))
@@ -343,7 +343,7 @@ def _create(f: _Frame, cost: np.ndarray, state: MatchState, cfg: MatcherConfig,
     pending: dict[Pair, int] = {}
     shown = []
     for i, j, d in gated_assignment(cost, f.free(0), f.free(1), cfg.match_threshold_heights,
-                                     cfg.create_margin_heights):
+                                    cfg.create_margin_heights):
         pair = (labels_a[i], labels_b[j])
         count = state.pending.get(pair, 0) + 1
         if count >= cfg.confirm_frames:

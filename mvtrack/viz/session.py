@@ -69,24 +69,25 @@ def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
     return figures
 
 
-def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary,
-               params: Params) -> dict[str, float]:
-    """After a run: the whole-run labels on the sink (with ``resolve.labels = "whole_run"``,
-    as `mvtrack track` writes them), then the run's figures on ``/metrics/summary``
-    (:func:`summary_figures`) and, when the clip has truth, ``idf1_global`` and
-    ``consistency`` of the labels as `mvtrack track` writes them (and ``*_online`` of the
-    labels as assigned frame by frame, when those differ): the numbers ``--watch`` compares."""
+def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params: Params,
+               frames: range) -> dict[str, float]:
+    """After a run over ``frames`` (it may have stopped early: ``summary.frames``): the
+    whole-run labels on the sink (with ``resolve.labels = "whole_run"``, as `mvtrack track`
+    writes them), then the run's figures on ``/metrics/summary`` (:func:`summary_figures`)
+    and, when the clip has truth, ``idf1_global`` and ``consistency`` of the labels as
+    `mvtrack track` writes them (and ``*_online`` of the labels as assigned frame by frame,
+    when those differ): the numbers ``--watch`` compares."""
+    done = range(frames.start, frames.start + summary.frames)
     kept = rows.rows()
     labels = {"": kept.meta}
     if params.resolve.labels == "whole_run":
         meta = resolve_rows(kept, summary.pairs, params).meta
-        sink.log_resolved(kept, meta)
+        sink.log_resolved(kept, meta, done)
         labels = {"": meta, "_online": kept.meta}
     figures = summary_figures(sink, summary)
-    if sink.truth is not None and sink.logged_frames is not None and len(kept.frame):
-        first, last = sink.logged_frames
+    if sink.truth is not None and len(kept.frame):
         for suffix, meta in labels.items():
-            m = label_metrics(sink.truth, replace(kept, meta=meta), range(first, last + 1))
+            m = label_metrics(sink.truth, replace(kept, meta=meta), done)
             figures[f"idf1_global{suffix}"] = float(m["idf1_global"])
             figures[f"consistency{suffix}"] = float(m["consistency"])
     sink.log_summary(figures)
@@ -115,7 +116,7 @@ def record_run(  # noqa: PLR0913 (the run's inputs, its recording and two keywor
             summary = run(clip, params, frames, [sink, rows], progress=progress, priors=priors)
         if summary.interrupted:
             sink.warn(f"interrupted after {summary.frames} frames")
-        finish_run(sink, rows, summary, params)
+        finish_run(sink, rows, summary, params, frames)
     except Exception as exc:
         with contextlib.suppress(Exception):  # if logging itself failed, this may fail too
             sink.event(f"run failed: {type(exc).__name__}: {exc}", rr.TextLogLevel.ERROR)

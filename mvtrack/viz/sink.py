@@ -189,7 +189,6 @@ class RerunSink:
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
         self._last_keys: dict[str, bytes] = {}  # path -> what was last logged there (log_changed)
         self.frames_logged = 0
-        self.logged_frames: tuple[int, int] | None = None  # first and last frame logged
         self.log_seconds = 0.0  # wall time spent logging frames
         self._images = ThreadPoolExecutor(1, thread_name_prefix="mvtrack-log-images") \
             if self.options.thread else None
@@ -291,8 +290,6 @@ class RerunSink:
             for layer, archetype in cam_layers:
                 rec.log(paths.camera_layer(name, layer), archetype)
         self.frames_logged += 1
-        first = result.index if self.logged_frames is None else self.logged_frames[0]
-        self.logged_frames = (first, result.index)
         seconds = time.perf_counter() - start
         self.log_seconds += seconds
         rec.log(paths.log_ms(), rr.Scalars(1000.0 * seconds))
@@ -491,19 +488,19 @@ class RerunSink:
 
     # ----------------------------------------------------------------------------- end
 
-    def log_resolved(self, rows: TrackRows, meta: np.ndarray) -> None:
+    def log_resolved(self, rows: TrackRows, meta: np.ndarray, done: range) -> None:
         """Whole-run labels (``meta``, one per row of ``rows``, the run's targets with their
         online metas) on ``/cameras/{cam}/resolved``: a box in the resolved meta's colour,
         labelled "t3 → m7" under the online label, on every target whose resolved meta differs
-        from the one it carried online, for every frame logged. One columnar send per camera,
-        after the run."""
+        from the one it carried online, for every frame of ``done`` (the frames logged). One
+        columnar send per camera, after the run."""
         if len(meta) != len(rows.frame):
             raise ValueError(f"log_resolved: {len(rows.frame)} rows but {len(meta)} metas")
-        if self.logged_frames is None:
+        if not len(done):
             return
-        first, last = self.logged_frames
-        frames = np.arange(first, last + 1)
-        changed = (meta != rows.meta) & (rows.frame >= first) & (rows.frame <= last)
+        first = done.start
+        frames = np.arange(first, done.stop)
+        changed = (meta != rows.meta) & (rows.frame >= first) & (rows.frame < done.stop)
         self._grow_metas(int(meta.max(initial=0)) + 1)
         for cam in self.spec.cameras:
             sel = np.flatnonzero(changed & (rows.camera == cam.name))

@@ -180,7 +180,7 @@ class Watcher:
         rows = RowsCollector()
         try:
             summary = self._drive(params, sink, cached, rows)
-            finish_run(sink, rows, summary, params)
+            finish_run(sink, rows, summary, params, self.frames)
         finally:
             sink.close()  # the sink's image thread ends with the run
         self.good = params
