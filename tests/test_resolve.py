@@ -110,6 +110,21 @@ def test_fragments_of_one_person_join_but_not_after_a_long_gap() -> None:
     assert len(set(near.meta[rows.meta == 9].tolist())) == 1
 
 
+def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:
+    """cam0 target 1 carries meta 7, then (online) meta 8 from frame 40 while it stays in view
+    until frame 80; target 2, another person, takes meta 7 at frame 50. Target 1 was not gone,
+    so this is no resume: the two share 30 frames (within max_shared_frames) yet stay apart."""
+    rows = _rows([
+        ("cam0", 1, 7, range(0, 40), (100.0, 100.0)),
+        ("cam0", 1, 8, range(40, 80), (100.0, 100.0)),
+        ("cam0", 2, 7, range(50, 120), (300.0, 200.0)),
+    ])
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] != metas["cam0", 2]
+    assert not any(x.joined for x in res.links)
+
+
 def test_pairs_without_h_keep_the_runs_own_links() -> None:
     rows = _rows([("cam0", 1, 1, range(20), (100.0, 100.0)),
                   ("cam1", 1, 1, range(20), (300.0, 10.0)),

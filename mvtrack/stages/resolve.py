@@ -15,7 +15,8 @@ the results give each target one meta for its whole life:
   the run's own links: votes = frames the two targets carried one meta together;
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
-  stays with it;
+  stays with it, if the earlier target was gone by then (a meta moved between two live
+  targets is the online stage changing its mind, not one person coming back);
 - links join strongest first (cross-camera votes before same-camera continuity). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
   frames into one meta is refused: those are two people, not two fragments of one;
@@ -137,10 +138,12 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
     cross: Counter[tuple[Node, Node]] = Counter()
     by_key: dict[tuple[int, int], list[Node]] = {}
     span: dict[tuple[Node, int], list[int]] = {}
+    last: dict[Node, int] = {}
     for f, m, n in zip(rows.frame.tolist(), rows.meta.tolist(), nodes, strict=True):
         by_key.setdefault((f, m), []).append(n)
         s = span.setdefault((n, m), [f, f, 0])
         s[0], s[1], s[2] = min(s[0], f), max(s[1], f), s[2] + 1
+        last[n] = max(last.get(n, f), f)
     for group in by_key.values():
         for x, y in combinations(sorted(set(group)), 2):
             if x[0] != y[0] and frozenset((x[0], y[0])) in pairs_without_h:
@@ -152,7 +155,10 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
     for members in carriers.values():
         for (x, sx), (y, sy) in combinations(sorted(members), 2):
             gap = max(sx[0], sy[0]) - min(sx[1], sy[1])
-            if x[0] == y[0] and 0 < gap <= cfg.resume_gap_frames:
+            earlier, taken_at = (x, sy[0]) if sx[1] < sy[0] else (y, sx[0])
+            # A take-over, not a meta handed from one live target to another: the earlier
+            # target is gone when the later one takes the meta.
+            if x[0] == y[0] and 0 < gap <= cfg.resume_gap_frames and last[earlier] < taken_at:
                 same[(x, y)] = min(sx[2], sy[2])
     return cross, same
 
