@@ -425,6 +425,10 @@ class MarkerConfig(_Checked):
         1500, "bootstrap: RANSAC samples (two candidates of two target pairs) per search", 1,
         1000000,
     )
+    comotion_draws_per_combination: float = param(
+        0.5, "bootstrap: in a crowd, draws per two-pair combination (more than "
+        "comotion_iterations when there are many target pairs; 0 = never more)", 0.0, 1000.0
+    )
     comotion_every_frames: int = param(
         25, "bootstrap: search the pool this often while no homography is valid", 1, 100000
     )

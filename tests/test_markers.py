@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -13,6 +15,7 @@ from mvtrack.stages.markers import (
     Marker,
     candidates_add,
     comotion_confirm,
+    comotion_draws,
     comotion_search,
     marker_points,
     marker_step,
@@ -257,7 +260,7 @@ def _ref_search(pool, cfg, fit, errors, rng):
     rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
     eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
     best = None
-    for _ in range(cfg.comotion_iterations):
+    for _ in range(comotion_draws(cfg, len(eligible))):
         sample = _ref_two_link_sample(eligible, pairs, rows_of, rng)
         H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
         if H is None:
@@ -288,11 +291,13 @@ def _scene_pool(kind: str, seed: int) -> Candidates:
     kind: "walks" (people on independent straight paths, some seen by one camera only),
     "alike" (people side by side with one velocity), "line" (everyone on one line in A: all
     samples degenerate), "few" (two people, two frames: a tiny pool), "sparse" (people
-    present in few frames: pairs with one or two candidates)."""
+    present in few frames: pairs with one or two candidates), "crowd" (16 people, about half
+    of them also in B: over a hundred target pairs, few of them true)."""
     rng = np.random.default_rng(seed)
     H = np.array([[0.9, 0.1, 40.0], [-0.05, 1.1, 20.0], [2e-4, 1e-4, 1.0]])
     n, frames, p_present = {"walks": (6, 20, 0.9), "alike": (4, 20, 1.0), "line": (4, 15, 1.0),
-                            "few": (2, 2, 1.0), "sparse": (5, 20, 0.3)}[kind]
+                            "few": (2, 2, 1.0), "sparse": (5, 20, 0.3),
+                            "crowd": (16, 12, 1.0)}[kind]
     start = rng.uniform([60, 60], [260, 200], (n, 2))
     vel = rng.uniform(-3, 3, (n, 2))
     if kind == "alike":
@@ -300,7 +305,7 @@ def _scene_pool(kind: str, seed: int) -> Candidates:
         vel[:] = vel[0]
     if kind == "line":
         start[:, 1], vel[:, 1] = 150.0, 0.0
-    only_a = rng.random(n) < (0.3 if kind == "walks" else 0.0)
+    only_a = rng.random(n) < {"walks": 0.3, "crowd": 0.45}.get(kind, 0.0)
     height = rng.uniform(30, 70, n)
     parts = []
     for f in range(frames):
@@ -340,6 +345,31 @@ def test_batched_comotion_search_matches_the_reference(kind: str, seed: int) -> 
         assert ref is not None and all(b == a + 100 for a, b in ref.links)
     if kind == "line":  # every sample is collinear in A
         assert ref is None
+
+
+def test_comotion_search_draws_more_in_a_crowd() -> None:
+    """Among ~140 target pairs with ~9 true ones, a sample of two true pairs is rare: a fixed
+    150 draws mostly miss it, draws scaled to the pair combinations find the true pairs."""
+    fixed = MarkerConfig(comotion_iterations=150, comotion_draws_per_combination=0.0)
+    scaled = MarkerConfig(comotion_iterations=150)
+
+    def right(found: Comotion | None) -> bool:  # the true pairing (a crowd adds a stray link)
+        return found is not None and sum(b == a + 100 for a, b in found.links) >= max(
+            3, 0.8 * len(found.links))
+
+    hits = {"fixed": 0, "scaled": 0}
+    for seed in range(5):
+        pool = _scene_pool("crowd", seed)
+        assert len(np.unique(pool.labels, axis=0)) > 100
+        for name, cfg in (("fixed", fixed), ("scaled", scaled)):
+            found = comotion_search(pool, cfg, solve_homography, transfer_errors,
+                                    np.random.default_rng(seed))
+            hits[name] += right(found)
+    assert hits["scaled"] == 5
+    assert hits["fixed"] <= 2
+    assert comotion_draws(scaled, 140) == math.ceil(0.5 * 140 * 139 / 2)
+    assert comotion_draws(scaled, 40) == 390  # 0.5 x 780 combinations
+    assert comotion_draws(scaled, 10) == 150  # few pairs: comotion_iterations
 
 
 def test_batched_comotion_search_matches_on_tiny_and_looser_settings() -> None:

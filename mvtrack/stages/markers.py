@@ -14,6 +14,7 @@ and keeps spatial coverage.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 
@@ -36,6 +37,7 @@ __all__ = [
     "MarkerState",
     "candidates_add",
     "comotion_confirm",
+    "comotion_draws",
     "comotion_search",
     "marker_groups",
     "marker_points",
@@ -336,21 +338,33 @@ class _PairIndex:
         return cls(pairs, inverse, n, np.split(order, np.cumsum(n)[:-1]) if len(n) else [])
 
 
+def comotion_draws(cfg: MarkerConfig, eligible: int) -> int:
+    """RANSAC draws of one search over ``eligible`` target pairs: ``comotion_iterations``, or
+    in a crowd enough that every two pairs are drawn ``comotion_draws_per_combination`` times
+    on average. A right sample needs two true pairs; their share of all two-pair combinations
+    falls with the square of the pairs, so a fixed count that finds them among 40 pairs almost
+    never does among 130 (generated 'crowd', seeds 1 and 2: no homography in 600 frames)."""
+    combinations = eligible * (eligible - 1) // 2
+    return max(cfg.comotion_iterations,
+               math.ceil(cfg.comotion_draws_per_combination * combinations))
+
+
 def _draw_samples(index: _PairIndex, cfg: MarkerConfig, rng: np.random.Generator) -> np.ndarray:
     """(S, 4) int64 candidate rows of the iterations whose draw gave a sample, in order.
 
     Two candidates of each of two label pairs that share no label; drawing whole target pairs
     (not single candidates) makes a correct sample likely even when most candidates are
     wrong: it needs two true pairs, not four true candidates. The ``rng`` calls are those of
-    ``cfg.comotion_iterations`` draws one after the other (the results depend on nothing else).
+    :func:`comotion_draws` draws one after the other (the results depend on nothing else).
     """
     eligible = np.flatnonzero(index.n >= max(cfg.comotion_min_support, 2))
     if len(eligible) < 2:
         return np.zeros((0, 4), np.int64)
     label_a, label_b = index.pairs[:, 0].tolist(), index.pairs[:, 1].tolist()
-    out = np.empty((cfg.comotion_iterations, 4), np.int64)
+    draws = comotion_draws(cfg, len(eligible))
+    out = np.empty((draws, 4), np.int64)
     s = 0
-    for _ in range(cfg.comotion_iterations):
+    for _ in range(draws):
         i, j = rng.choice(eligible, size=2, replace=False).tolist()
         if label_a[i] == label_a[j] or label_b[i] == label_b[j]:
             continue
