@@ -7,7 +7,6 @@ Each command is thin: parse options, call the library, print. Errors that are th
 from __future__ import annotations
 
 import json
-import math
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -266,9 +265,8 @@ def track(
     geometry: GeometryOpt = None,
 ) -> None:
     """Track people in a clip; write tracks.csv, pairs.json, cues.csv and run.json."""
+    from mvtrack.batch import track_to
     from mvtrack.io.results import ResultsWriter
-    from mvtrack.pipeline import resolve_results, run
-    from mvtrack.run_info import run_info
 
     if matcher is not None:
         set_ = [*(set_ or []), f"matcher.method={matcher}"]
@@ -276,13 +274,10 @@ def track(
         opened, resolved, rng = open_run(clip, params, set_, frames, cameras)
         priors = load_priors(geometry, opened, subset=cameras is not None)
     with opened:
-        writer = ResultsWriter(out_dir, mask_every=mask_every)
         with progress_bar("tracking") as update:
-            summary = run(opened, resolved, rng, [writer], progress=update, priors=priors)
-        writer.close(run_info(opened.spec, resolved, rng, summary), summary.pairs)
+            summary = track_to(opened, resolved, rng, ResultsWriter(out_dir, mask_every),
+                               priors=priors, progress=update)
         whole_run = resolved.resolve.labels == "whole_run"
-        if whole_run:
-            resolve_results(out_dir, summary.pairs, resolved)
         for warning in opened.warnings[len(opened.spec.warnings):]:
             err.print(f"[yellow]warning:[/] {warning}", highlight=False)
     if summary.interrupted:
@@ -305,14 +300,14 @@ def eval_(
     results: Annotated[Path, typer.Argument(help="Results directory from `mvtrack track`.")],
 ) -> None:
     """Score results against the clip's truth; write metrics.json beside the results."""
-    from mvtrack.evaluate.report import evaluate
+    from mvtrack.evaluate.report import evaluate, write_metrics
 
     with user_errors():
         try:
             metrics = evaluate(clip, results)
         except (FileNotFoundError, ValueError) as exc:
             raise fail(str(exc)) from None
-    (results / "metrics.json").write_text(json.dumps(_json_safe(metrics), indent=2) + "\n")
+    written = write_metrics(results, metrics)
     _print_camera_metrics(metrics, f"{results} against {clip}/truth")
     if "labels" in metrics:
         _print_flat("consistent labels (all cameras)", metrics["labels"])
@@ -320,18 +315,7 @@ def eval_(
         _print_flat("labels as assigned online (tracks_online.csv)", metrics["labels_online"])
     for pair in metrics.get("pairs", []):
         _print_flat(f"pair {'-'.join(pair['cameras'])}", pair)
-    out.print(f"wrote {results / 'metrics.json'}")
-
-
-def _json_safe(value: Any) -> Any:
-    """NaN and infinities become null: metrics.json stays standard JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, dict):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return value
+    out.print(f"wrote {written}")
 
 
 def _print_flat(title: str, figures: dict[str, Any]) -> None:

@@ -7,6 +7,7 @@ run wrote them). Returns one JSON-ready dict, written as `metrics.json` beside t
 from __future__ import annotations
 
 import json
+import math
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -20,7 +21,7 @@ from mvtrack.evaluate.pairs import pairs_metrics_for_results
 from mvtrack.io import ClipError, Truth, read_truth
 from mvtrack.io.results import TrackRows, read_tracks
 
-__all__ = ["EvalConfig", "evaluate", "processed_frames", "results_masks"]
+__all__ = ["EvalConfig", "evaluate", "processed_frames", "results_masks", "write_metrics"]
 
 
 @dataclass(frozen=True)
@@ -126,3 +127,21 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
     if pairs is not None:
         metrics["pairs"] = pairs
     return metrics
+
+
+def write_metrics(results: Path, metrics: Mapping[str, Any]) -> Path:
+    """Write ``metrics`` as ``results/metrics.json``; NaN and infinities become null, so the
+    file stays standard JSON. Returns the path."""
+    path = Path(results) / "metrics.json"
+    path.write_text(json.dumps(_json_safe(metrics), indent=2) + "\n")
+    return path
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float) and not math.isfinite(value):
+        return None
+    if isinstance(value, Mapping):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    return value
