@@ -291,7 +291,7 @@ def track(
 
 
 def _fmt(value: Any) -> str:
-    return f"{value:.3f}" if isinstance(value, float) else str(value)
+    return f"{value:.3f}" if isinstance(value, float) else "-" if value is None else str(value)
 
 
 @app.command("eval")
@@ -427,6 +427,103 @@ def bench(
     if json_out is not None:
         data: Any = rows if not report else {"front_end": rows, **report}
         json_out.write_text(json.dumps(data, indent=2) + "\n")
+
+
+_ALL_SCENARIOS = "pair,tilted,gray,doors,one_edge,pillar,crowd,three"
+
+
+@app.command()
+def sweep(
+    out_dir: Annotated[Path, typer.Option("--out", help="Directory for the runs, sweep.csv "
+                                          "and sweep.json.")],
+    scenarios: Annotated[str, typer.Option(help="Comma-separated scenarios (see `mvtrack "
+                                           "generate --list`).")] = _ALL_SCENARIOS,
+    seeds: Annotated[str, typer.Option(help="Comma-separated generator seeds.")] = "0",
+    variants: Annotated[list[str] | None, typer.Option(
+        "--variant", help="NAME:KEY=VALUE[,KEY=VALUE...]: thresholds to compare with the "
+        "defaults, e.g. low:background.t_low=0.08 (repeat for more).")] = None,
+    frames: Annotated[int, typer.Option(help="Frames per generated clip.")] = 600,
+    size: Annotated[str, typer.Option(help="Main camera size WIDTHxHEIGHT of the generated "
+                                      "clips (the size the README's figures use).")] = "320x240",
+    clips: Annotated[Path | None, typer.Option(
+        help="Cache of generated clips, reused across sweeps (default: OUT/clips).")] = None,
+    jobs: Annotated[int, typer.Option(help="Runs at a time (worker processes).")] = 2,
+    params: ParamsOpt = None,
+    set_: SetOpt = None,
+) -> None:
+    """Track and score generated clips (scenarios x seeds) with the default thresholds and
+    each --variant: one row per run, then each variant's means and their change."""
+    from mvtrack.sweep import COLUMNS, SweepPlan, Variant, parse_variant, run_sweep, variant_means
+
+    try:
+        plan = SweepPlan(
+            scenarios=[x.strip() for x in scenarios.split(",") if x.strip()],
+            seeds=[int(x) for x in seeds.split(",") if x.strip()],
+            variants=[Variant("defaults", ()), *(parse_variant(v) for v in variants or [])],
+            out_dir=out_dir, frames=frames, size=parse_size(size), common=tuple(set_ or []),
+            params_file=params, clips_dir=clips, jobs=jobs)
+    except ValueError as exc:
+        raise fail(f"{exc}") from None
+    short = {"idf1": "IDF1", "consistency": "cons", "idf1_online": "IDF1 on",
+             "recall_min": "rec min", "precision_min": "prec min", "foot_median_px_max": "foot px",
+             "h_median_px_max": "H med", "h_p90_px_max": "H p90", "h_first_frame_max": "H at",
+             "pairs_without_h": "no H", "fov_line_px_max": "line px",
+             "occlusion_recovery": "occl"}
+    missing = [plan.clip_path(s, seed) for s in plan.scenarios for seed in plan.seeds
+               if not plan.clip_path(s, seed).is_dir()]
+    err.print(f"{len(plan.scenarios) * len(plan.seeds)} clips x {len(plan.variants)} variants, "
+              f"{jobs} at a time; runs in {out_dir / 'runs'}" + (
+                  f"; generating {len(missing)} clips into {missing[0].parent} first"
+                  if missing else ""))
+    def report(r: dict[str, Any]) -> None:
+        what = (f"[red]failed:[/] {r['error']}" if r["error"] else
+                f"IDF1 {_fmt(r['idf1'])}, consistency {_fmt(r['consistency'])}")
+        err.print(f"  {r['scenario']} seed {r['seed']} {r['variant']}: {what}",
+                  highlight=False)
+
+    with user_errors():
+        try:
+            done = run_sweep(plan, on_row=report)
+        except ValueError as exc:
+            raise fail(str(exc)) from None
+    rows = done.rows
+    if not rows:
+        raise typer.Exit(code=130 if done.interrupted else 1)
+    table = Table(title=f"sweep ({out_dir / 'sweep.csv'})")
+    for key in ("scenario", "seed", "variant", *COLUMNS):
+        table.add_column(short.get(key, key))
+    for row in rows:
+        table.add_row(*(_fmt(row[k]) for k in ("scenario", "seed", "variant", *COLUMNS)))
+    out.print(table)
+    means = variant_means(rows)
+    table = Table(title="means per variant (d: change from defaults, over the same clips)")
+    table.add_column("variant")
+    table.add_column("runs")
+    for key in COLUMNS:
+        table.add_column(short[key])
+    for m in means:
+        table.add_row(m["variant"], str(m["runs"]), *(
+            _fmt(m[k]) + ("" if m[f"d_{k}"] is None else f" ({m[f'd_{k}']:+.3f})")
+            for k in COLUMNS))
+    out.print(table)
+    _write_sweep(out_dir, rows, means)
+    if done.interrupted:
+        err.print(f"interrupted after {len(rows)} runs; their figures are in {out_dir}")
+        raise typer.Exit(code=130)
+    if any(r["error"] for r in rows):
+        raise fail(f"{sum(bool(r['error']) for r in rows)} runs failed (see the log above)")
+
+
+def _write_sweep(out_dir: Path, rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:
+    import csv
+
+    with (out_dir / "sweep.csv").open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    (out_dir / "sweep.json").write_text(
+        json.dumps({"runs": rows, "means": means}, indent=2) + "\n")
+    out.print(f"wrote {out_dir / 'sweep.csv'} and {out_dir / 'sweep.json'}")
 
 
 def _print_rows(title: str, rows: list[dict[str, Any]]) -> None:

@@ -1,0 +1,151 @@
+"""`mvtrack sweep` (mvtrack/sweep.py): variants, the figures of a run, means, the command."""
+
+from __future__ import annotations
+
+import csv
+import json
+import math
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from mvtrack.cli import app
+from mvtrack.sweep import (
+    COLUMNS,
+    SweepPlan,
+    Variant,
+    check_plan,
+    clip_name,
+    parse_variant,
+    summary_row,
+    variant_means,
+)
+
+runner = CliRunner()
+
+
+def test_parse_variant() -> None:
+    assert parse_variant("low:background.t_low=0.08") == Variant(
+        "low", ("background.t_low=0.08",))
+    assert parse_variant(" two : a.b=1 , c.d=x ") == Variant("two", ("a.b=1", "c.d=x"))
+    assert parse_variant("same:") == Variant("same", ())
+    for bad in ("background.t_low=0.08", ":a.b=1", "x/y:a.b=1", "low:a.b"):
+        with pytest.raises(ValueError, match="--variant"):
+            parse_variant(bad)
+
+
+def test_plan_errors_name_what_is_wrong(tmp_path: Path) -> None:
+    def plan(scenarios: list[str], *variants: Variant) -> SweepPlan:
+        return SweepPlan(scenarios, [0], [Variant("defaults", ()), *variants], tmp_path)
+
+    with pytest.raises(ValueError, match=r"unknown scenario.*nope"):
+        check_plan(plan(["pair", "nope"]))
+    with pytest.raises(ValueError, match=r"variant 'bad'.*background.t_lo"):
+        check_plan(plan(["pair"], Variant("bad", ("background.t_lo=0.1",))))
+    with pytest.raises(ValueError, match="repeat"):
+        check_plan(plan(["pair"], Variant("defaults", ("background.t_low=0.1",))))
+    check_plan(plan(["pair"], Variant("ok", ("background.t_low=0.12",))))
+    assert clip_name("pair", 2, 600, (320, 240)) == "pair-seed2-600f-320x240"
+
+
+def _metrics(idf1: float, p90: float | None) -> dict:
+    pair_h = {"first_valid_H": {"frame": 125}, "transfer_error_px": {"median": 2.0, "p90": p90},
+              "fov_lines": [{"learned": True, "visible_length_px": 80, "error_px_mean": 4.5},
+                            {"learned": True, "visible_length_px": 20, "error_px_mean": 30.0}]}
+    no_h = {"first_valid_H": None, "transfer_error_px": {"median": None, "p90": None},
+            "fov_lines": [{"learned": False, "visible_length_px": 90, "error_px_mean": None}]}
+    return {
+        "cameras": {"cam0": {"recall": 0.96, "precision": 0.94, "foot_error_px_median": 3.6},
+                    "cam1": {"recall": 0.93, "precision": 0.97, "foot_error_px_median": 2.5}},
+        "labels": {"idf1_global": idf1, "consistency": 0.99, "occlusion_recovery": math.nan},
+        "labels_online": {"idf1_global": 0.8},
+        "pairs": [pair_h, no_h],
+    }
+
+
+def test_summary_row_takes_the_worst_camera_and_pair() -> None:
+    row = summary_row(_metrics(0.944, 4.5))
+    assert list(row) == list(COLUMNS)
+    assert row["idf1"] == 0.944 and row["idf1_online"] == 0.8
+    assert (row["recall_min"], row["precision_min"], row["foot_median_px_max"]) == (
+        0.93, 0.94, 3.6)
+    assert (row["h_median_px_max"], row["h_p90_px_max"], row["h_first_frame_max"]) == (
+        2.0, 4.5, 125)
+    assert row["pairs_without_h"] == 1
+    assert row["fov_line_px_max"] == 4.5  # the 20 px line is too short to judge
+    assert row["occlusion_recovery"] is None  # NaN: no occlusion episode
+
+
+def test_variant_means_compare_over_the_same_clips() -> None:
+    rows = [
+        {"scenario": "pair", "seed": 0, "variant": "defaults", **summary_row(_metrics(0.9, 4.0))},
+        {"scenario": "pair", "seed": 1, "variant": "defaults", **summary_row(_metrics(0.7, 8.0))},
+        {"scenario": "pair", "seed": 0, "variant": "v", **summary_row(_metrics(0.95, None))},
+    ]
+    means = variant_means(rows)
+    assert [m["variant"] for m in means] == ["defaults", "v"]
+    assert means[0]["runs"] == 2 and means[0]["idf1"] == pytest.approx(0.8)
+    assert means[0]["d_idf1"] is None
+    assert means[1]["d_idf1"] == pytest.approx(0.05)  # against seed 0 only
+    assert means[1]["h_p90_px_max"] is None and means[1]["d_h_p90_px_max"] is None
+
+
+def test_sweep_runs_track_and_eval_on_generated_clips(tmp_path: Path) -> None:
+    """A real sweep: the clip is generated once and reused; each run's figures are the ones
+    `mvtrack track` + `mvtrack eval` give on the same clip and thresholds."""
+    out, clips = tmp_path / "sweep", tmp_path / "clips"
+    args = ["sweep", "--out", str(out), "--clips", str(clips), "--scenarios", "pair",
+            "--seeds", "0", "--frames", "120", "--size", "160x120", "--jobs", "2",
+            "--variant", "hi:background.t_low=0.16"]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    with (out / "sweep.csv").open(newline="") as f:
+        rows = list(csv.DictReader(f))
+    assert [(r["scenario"], r["variant"]) for r in rows] == [("pair", "defaults"), ("pair", "hi")]
+    summary = json.loads((out / "sweep.json").read_text())
+    assert [m["variant"] for m in summary["means"]] == ["defaults", "hi"]
+    clip = clips / "pair-seed0-120f-160x120"
+    assert (clip / "clip.toml").is_file()
+    made = (clip / "clip.toml").stat().st_mtime_ns
+
+    alone = tmp_path / "alone"
+    for cmd in (["track", str(clip), "--out", str(alone), "--set", "background.t_low=0.16"],
+                ["eval", str(clip), str(alone)]):
+        assert runner.invoke(app, cmd).exit_code == 0
+    expected = summary_row(json.loads((alone / "metrics.json").read_text()))
+    got = summary["runs"][1]
+    for key in ("idf1", "consistency", "recall_min", "precision_min", "foot_median_px_max"):
+        assert got[key] == pytest.approx(expected[key]), key
+    assert summary["runs"][0]["recall_min"] != got["recall_min"]  # the variant changed things
+    assert (out / "runs" / "hi" / clip.name / "metrics.json").is_file()
+
+    again = runner.invoke(app, [*args[:-2], "--variant", "lo:background.t_low=0.08"])
+    assert again.exit_code == 0, again.output
+    assert (clip / "clip.toml").stat().st_mtime_ns == made  # the cached clip was reused
+
+
+def test_sweep_refuses_a_bad_variant_before_any_work(tmp_path: Path) -> None:
+    result = runner.invoke(app, ["sweep", "--out", str(tmp_path / "s"), "--scenarios", "pair",
+                                 "--variant", "x:background.nope=1"])
+    assert result.exit_code != 0
+    assert "variant 'x'" in result.output and "background.nope" in result.output
+    assert not (tmp_path / "s" / "clips").exists()
+
+
+def test_a_failing_run_does_not_stop_the_sweep(tmp_path: Path) -> None:
+    """A broken clip in the cache fails its runs with the reason; the others finish and the
+    tables are written; the command exits with an error."""
+    out, clips = tmp_path / "sweep", tmp_path / "clips"
+    broken = clips / "gray-seed0-60f-160x120"
+    broken.mkdir(parents=True)
+    (broken / "clip.toml").write_text("fps = 25.0\n[[camera]]\nname = 'cam0'\n")
+    result = runner.invoke(app, ["sweep", "--out", str(out), "--clips", str(clips),
+                                 "--scenarios", "pair,gray", "--frames", "60",
+                                 "--size", "160x120", "--jobs", "1"])
+    assert result.exit_code == 2
+    assert "1 runs failed" in result.output
+    runs = json.loads((out / "sweep.json").read_text())["runs"]
+    assert [(r["scenario"], bool(r["error"])) for r in runs] == [("pair", False), ("gray", True)]
+    assert "clip.toml" in runs[1]["error"] and runs[1]["idf1"] is None
+    assert runs[0]["recall_min"] > 0.5
