@@ -453,28 +453,23 @@ def sweep(
 ) -> None:
     """Track and score generated clips (scenarios x seeds) with the default thresholds and
     each --variant: one row per run, then each variant's means and their change."""
-    from mvtrack.sweep import COLUMNS, SweepPlan, Variant, parse_variant, run_sweep, variant_means
+    from mvtrack.sweep import SweepPlan, Variant, parse_variant, run_sweep, variant_means
 
     try:
         plan = SweepPlan(
             scenarios=[x.strip() for x in scenarios.split(",") if x.strip()],
-            seeds=[int(x) for x in seeds.split(",") if x.strip()],
+            seeds=_seeds(seeds),
             variants=[Variant("defaults", ()), *(parse_variant(v) for v in variants or [])],
             out_dir=out_dir, frames=frames, size=parse_size(size), common=tuple(set_ or []),
             params_file=params, clips_dir=clips, jobs=jobs)
     except ValueError as exc:
-        raise fail(f"{exc}") from None
-    short = {"idf1": "IDF1", "consistency": "cons", "idf1_online": "IDF1 on",
-             "recall_min": "rec min", "precision_min": "prec min", "foot_median_px_max": "foot px",
-             "h_median_px_max": "H med", "h_p90_px_max": "H p90", "h_first_frame_max": "H at",
-             "pairs_without_h": "no H", "fov_line_px_max": "line px",
-             "occlusion_recovery": "occl"}
-    missing = [plan.clip_path(s, seed) for s in plan.scenarios for seed in plan.seeds
-               if not plan.clip_path(s, seed).is_dir()]
+        raise fail(str(exc)) from None
+    missing = plan.missing_clips()
     err.print(f"{len(plan.scenarios) * len(plan.seeds)} clips x {len(plan.variants)} variants, "
               f"{jobs} at a time; runs in {out_dir / 'runs'}" + (
                   f"; generating {len(missing)} clips into {missing[0].parent} first"
                   if missing else ""))
+
     def report(r: dict[str, Any]) -> None:
         what = (f"[red]failed:[/] {r['error']}" if r["error"] else
                 f"IDF1 {_fmt(r['idf1'])}, consistency {_fmt(r['consistency'])}")
@@ -489,29 +484,50 @@ def sweep(
     rows = done.rows
     if not rows:
         raise typer.Exit(code=130 if done.interrupted else 1)
-    table = Table(title=f"sweep ({out_dir / 'sweep.csv'})")
-    for key in ("scenario", "seed", "variant", *COLUMNS):
-        table.add_column(short.get(key, key))
-    for row in rows:
-        table.add_row(*(_fmt(row[k]) for k in ("scenario", "seed", "variant", *COLUMNS)))
-    out.print(table)
     means = variant_means(rows)
-    table = Table(title="means per variant (d: change from defaults, over the same clips)")
-    table.add_column("variant")
-    table.add_column("runs")
-    for key in COLUMNS:
-        table.add_column(short[key])
-    for m in means:
-        table.add_row(m["variant"], str(m["runs"]), *(
-            _fmt(m[k]) + ("" if m[f"d_{k}"] is None else f" ({m[f'd_{k}']:+.3f})")
-            for k in COLUMNS))
-    out.print(table)
+    _print_sweep(rows, means)
     _write_sweep(out_dir, rows, means)
     if done.interrupted:
         err.print(f"interrupted after {len(rows)} runs; their figures are in {out_dir}")
         raise typer.Exit(code=130)
     if any(r["error"] for r in rows):
         raise fail(f"{sum(bool(r['error']) for r in rows)} runs failed (see the log above)")
+
+
+def _seeds(text: str) -> list[int]:
+    try:
+        return [int(x) for x in text.split(",") if x.strip()]
+    except ValueError:
+        raise ValueError(f"--seeds {text!r}: expected comma-separated integers, e.g. 0,1,2") \
+            from None
+
+
+_SWEEP_HEADS = {"idf1": "IDF1", "consistency": "cons", "idf1_online": "IDF1 on",
+                "recall_min": "rec min", "precision_min": "prec min",
+                "foot_median_px_max": "foot px", "h_median_px_max": "H med",
+                "h_p90_px_max": "H p90", "h_first_frame_max": "H at", "pairs_without_h": "no H",
+                "fov_line_px_max": "line px", "occlusion_recovery": "occl"}
+
+
+def _print_sweep(rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:
+    """The runs, one row each, then each variant's means with their change in brackets."""
+    from mvtrack.sweep import COLUMNS
+
+    keys = ("scenario", "seed", "variant", *COLUMNS)
+    table = Table(title="sweep: one row per run (worst camera, worst pair)")
+    for key in keys:
+        table.add_column(_SWEEP_HEADS.get(key, key))
+    for row in rows:
+        table.add_row(*(_fmt(row[k]) for k in keys))
+    out.print(table)
+    table = Table(title="means per variant (in brackets: change from the first, same clips)")
+    for key in ("variant", "runs", *COLUMNS):
+        table.add_column(_SWEEP_HEADS.get(key, key))
+    for m in means:
+        table.add_row(m["variant"], str(m["runs"]), *(
+            _fmt(m[k]) + ("" if m[f"d_{k}"] is None else f" ({m[f'd_{k}']:+.3f})")
+            for k in COLUMNS))
+    out.print(table)
 
 
 def _write_sweep(out_dir: Path, rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:

@@ -87,6 +87,11 @@ class SweepPlan:
         cache = self.clips_dir if self.clips_dir is not None else self.out_dir / "clips"
         return cache / clip_name(scenario, seed, self.frames, self.size)
 
+    def missing_clips(self) -> list[Path]:
+        """The clips a sweep of this plan generates first (not in the cache)."""
+        return [p for p in (self.clip_path(s, seed) for s in self.scenarios for seed in self.seeds)
+                if not p.is_dir()]
+
     def run_dir(self, variant: Variant, scenario: str, seed: int) -> Path:
         return self.out_dir / "runs" / variant.name / clip_name(scenario, seed, self.frames,
                                                                  self.size)

@@ -149,3 +149,12 @@ def test_a_failing_run_does_not_stop_the_sweep(tmp_path: Path) -> None:
     assert [(r["scenario"], bool(r["error"])) for r in runs] == [("pair", False), ("gray", True)]
     assert "clip.toml" in runs[1]["error"] and runs[1]["idf1"] is None
     assert runs[0]["recall_min"] > 0.5
+
+
+def test_sweep_names_a_bad_option(tmp_path: Path) -> None:
+    for args, message in ((["--seeds", "0,x"], "--seeds '0,x'"),
+                          (["--scenarios", "pair,nope"], "unknown scenario(s) nope"),
+                          (["--variant", "nocolon"], "--variant 'nocolon'")):
+        result = runner.invoke(app, ["sweep", "--out", str(tmp_path / "s"), *args])
+        assert result.exit_code == 2 and message in result.output, result.output
+
