@@ -9,7 +9,8 @@ the figures that matter are spread over scenarios and seeds. A sweep generates e
 seed) clip once into a cache folder (reused by later sweeps), then runs `mvtrack track` and
 `mvtrack eval` on every clip for every *variant* (a named list of ``--set`` overrides;
 "defaults" runs first), in worker processes. Each run's results and `metrics.json` stay under
-``out_dir/runs/VARIANT/CLIP`` for a closer look (`mvtrack-view`, `mvtrack eval`).
+``out_dir/runs/VARIANT/CLIP``; `mvtrack-view` on the cached clip with the variant's ``--set``
+values shows the run.
 
 :func:`summary_row` reduces a `metrics.json` to the figures the issues' targets use (worst
 camera, worst pair); :func:`variant_means` averages them per variant, with the difference
