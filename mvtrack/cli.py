@@ -533,6 +533,7 @@ def _print_sweep(rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> Non
 def _write_sweep(out_dir: Path, rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:
     import csv
 
+    out_dir.mkdir(parents=True, exist_ok=True)  # no run may have made it (all failed)
     with (out_dir / "sweep.csv").open("w", newline="", encoding="utf-8") as f:
         writer = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
         writer.writeheader()

@@ -221,7 +221,8 @@ def _run_cases(plan: SweepPlan, pool: ProcessPoolExecutor, cases: list[tuple[str
         error = _error(generated)
         if error is None:
             submit(*made[generated])
-        for v in plan.variants if error is not None else ():
+            continue
+        for v in plan.variants:
             record((*made[generated], v.name), None, f"generating the clip: {_why(error)}")
     for finished in as_completed(runs):
         error = _error(finished)
@@ -300,9 +301,9 @@ def _worst(pick: Callable[[list[float]], float], values: Sequence[Any]) -> float
 
 
 def variant_means(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
-    """Per variant (first-seen order): ``runs`` and the mean of each :data:`COLUMNS` figure
-    over the runs that have it, and ``d_<figure>``, its difference from the first variant's
-    mean over the clips both have it for (None for the first variant)."""
+    """Per variant (first-seen order): ``runs``, the mean of each :data:`COLUMNS` figure over
+    the runs that have it, and ``d_<figure>``, the mean of its per-clip differences from the
+    first variant over the clips where both have it (None for the first variant)."""
     names = list(dict.fromkeys(r["variant"] for r in rows))
     by = {(r["scenario"], r["seed"], r["variant"]): r for r in rows}
     out = []

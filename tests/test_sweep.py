@@ -158,3 +158,15 @@ def test_sweep_names_a_bad_option(tmp_path: Path) -> None:
         result = runner.invoke(app, ["sweep", "--out", str(tmp_path / "s"), *args])
         assert result.exit_code == 2 and message in result.output, result.output
 
+
+
+def test_a_clip_that_cannot_be_generated_fails_its_runs(tmp_path: Path) -> None:
+    blocker = tmp_path / "not-a-folder"
+    blocker.write_text("")
+    result = runner.invoke(app, ["sweep", "--out", str(tmp_path / "s"), "--clips", str(blocker),
+                                 "--scenarios", "pair", "--frames", "10", "--size", "160x120",
+                                 "--variant", "b:background.t_low=0.2", "--jobs", "1"])
+    assert result.exit_code == 2 and "2 runs failed" in result.output
+    runs = json.loads((tmp_path / "s" / "sweep.json").read_text())["runs"]
+    assert [r["variant"] for r in runs] == ["defaults", "b"]
+    assert all(r["error"].startswith("generating the clip") for r in runs)
