@@ -205,8 +205,10 @@ def _run_cases(plan: SweepPlan, pool: ProcessPoolExecutor, cases: list[tuple[str
                record: Callable[[tuple[str, int, str], Mapping[str, Any] | None, str | None],
                                 None]) -> None:
     """Generation jobs for the clips not in the cache, and each clip's runs once it exists."""
+    # Decided once: a clip generated while runs are being submitted must not get them twice.
+    missing = set(plan.missing_clips())
     made = {pool.submit(_generate, s, seed, plan.frames, plan.size, plan.clip_path(s, seed)):
-            (s, seed) for s, seed in cases if not plan.clip_path(s, seed).is_dir()}
+            (s, seed) for s, seed in cases if plan.clip_path(s, seed) in missing}
     runs: dict[Future[dict[str, Any]], tuple[str, int, str]] = {}
 
     def submit(s: str, seed: int) -> None:
@@ -215,7 +217,7 @@ def _run_cases(plan: SweepPlan, pool: ProcessPoolExecutor, cases: list[tuple[str
                              plan.params_file, [*plan.common, *v.overrides])] = (s, seed, v.name)
 
     for s, seed in cases:
-        if plan.clip_path(s, seed).is_dir():
+        if plan.clip_path(s, seed) not in missing:
             submit(s, seed)
     for generated in as_completed(made):
         error = _error(generated)
