@@ -136,11 +136,13 @@ def test_metrics_and_events(recording: dict[str, Any]) -> None:
     assert recording[paths.EVENTS]["rows"] > 0
     assert recording[paths.GROUND_TARGETS]["rows"] == N_FRAMES
     assert recording[paths.GROUND_TRAILS]["rows"] == N_FRAMES
-    for cam in ("cam0", "cam1"):
-        assert "LineStrips2D:strips" in recording[paths.camera_layer(cam, "cues")]["columns"]
-        assert recording[paths.camera_layer(cam, "cues")]["rows"] == N_FRAMES
+    for cam in ("cam0", "cam1"):  # cues and costs: logged from frame 0, then on changes
+        cues = recording[paths.camera_layer(cam, "cues")]
+        assert "LineStrips2D:strips" in cues["columns"]
+        assert 0 in cues["frames"] and 1 <= cues["rows"] <= N_FRAMES
     costs = recording[paths.pair_costs("cam0", "cam1")]
-    assert "TextDocument:text" in costs["columns"] and costs["rows"] == N_FRAMES
+    assert "TextDocument:text" in costs["columns"]
+    assert 0 in costs["frames"] and 1 <= costs["rows"] <= N_FRAMES
     assert recording[paths.GROUND_TRUTH]["rows"] == N_FRAMES  # metres: truth/ground.json
     outline = recording[paths.ground_fov("cam0")]  # logged from frame 0, then on changes
     assert 0 in outline["frames"] and 1 <= outline["rows"] < N_FRAMES
@@ -194,7 +196,8 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
     for cam, other in ((a, b), (b, a)):
         lines = rec[paths.camera_pair_layer(cam, "fov_lines", other)]  # frame 0, then changes
         assert 0 in lines["frames"] and 1 < lines["rows"] < 100
-        assert rec[paths.camera_pair_layer(cam, "markers", other)]["rows"] == 100
+        markers = rec[paths.camera_pair_layer(cam, "markers", other)]  # on marker frames
+        assert 0 in markers["frames"] and 1 < markers["rows"] <= 100 // 5 + 1
     if n_lines:
         hough = rec[paths.hough_accumulators(a, b)]
         assert "EncodedImage:blob" in hough["columns"] and hough["rows"] >= 1

@@ -8,13 +8,14 @@ Reads the matcher's :class:`~mvtrack.stages.matcher.MatchResult`, the meta step'
 from __future__ import annotations
 
 from collections.abc import Sequence
+from functools import partial
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import rerun as rr
 
 from mvtrack.viz import paths
-from mvtrack.viz.log import ring_strips, to_viewer
+from mvtrack.viz.log import ring_strips, strips_key, to_viewer
 
 if TYPE_CHECKING:
     from mvtrack.viz.sink import RerunSink
@@ -41,8 +42,9 @@ def log_matches(sink: RerunSink, key: tuple[str, str], m: Any) -> None:
     """Costs and the link events of one pair's match step."""
     a, b = key
     name = paths.pair_name(a, b)
-    sink.rec.log(paths.pair_costs(a, b), rr.TextDocument(cost_table(a, b, m),
-                                                         media_type=rr.MediaType.MARKDOWN))
+    table = cost_table(a, b, m)
+    sink.log_changed(paths.pair_costs(a, b), table.encode(),
+                     partial(rr.TextDocument, table, media_type=rr.MediaType.MARKDOWN))
     info, debug = rr.TextLogLevel.INFO, rr.TextLogLevel.DEBUG
     for what, rows, level in (("created", m.created, info), ("re-attached", m.reattached, info),
                               ("broken (inconsistent)", m.broken, rr.TextLogLevel.WARN),
@@ -80,6 +82,7 @@ def log_cues(sink: RerunSink, cameras: Sequence[str], cues: Sequence[Any]) -> No
         rings[cue.camera] += [to_viewer(r) for r in ring_strips(centre, _CUE_RADIUS_PX)]
         ids[cue.camera].append(cue.meta)
     for cam in cameras:
-        sink.rec.log(paths.camera_layer(cam, "cues"), rr.LineStrips2D(
-            rings[cam], class_ids=ids[cam], labels=[f"m{m} expected" for m in ids[cam]],
-            radii=1.5, draw_order=12.0))
+        labels = [f"m{m} expected" for m in ids[cam]]
+        sink.log_changed(paths.camera_layer(cam, "cues"), strips_key(rings[cam], labels),
+                         partial(rr.LineStrips2D, rings[cam], class_ids=ids[cam], labels=labels,
+                                 radii=1.5, draw_order=12.0))

@@ -179,9 +179,10 @@ def _log_markers(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
     markers = pr.markers.markers
     xa = np.array([m.x_a for m in markers], np.float64).reshape(-1, 2)
     xb = np.array([m.x_b for m in markers], np.float64).reshape(-1, 2)
-    for cam, other, pts in ((a, b, xa), (b, a, xb)):
-        sink.rec.log(paths.camera_pair_layer(cam, "markers", other), rr.Points2D(
-            to_viewer(pts), colors=(255, 0, 255), radii=2.0, draw_order=7.0))
+    for cam, other, pts in ((a, b, xa), (b, a, xb)):  # the store changes on marker frames only
+        sink.log_changed(paths.camera_pair_layer(cam, "markers", other), pts.tobytes(),
+                         partial(rr.Points2D, to_viewer(pts), colors=(255, 0, 255), radii=2.0,
+                                 draw_order=7.0))
     sink.rec.log(paths.pair_layer(a, b, "markers"), rr.Scalars(float(len(markers))))
 
 
@@ -201,7 +202,8 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
     H = _valid_H(pr)
     if H is None:  # nothing to project yet (an empty layer, so views and tests can rely on it)
         for src, dst in ((a, b), (b, a)):
-            sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D([]))
+            sink.log_changed(paths.camera_pair_layer(dst, "projected", src), b"",
+                             partial(rr.LineStrips2D, []))
         return
     sink.rec.log(paths.pair_layer(a, b, "quality_px"), rr.Scalars(float(pr.homography.quality_px)))
     for src, dst, M in ((a, b, H), (b, a, np.linalg.inv(H))):
@@ -216,10 +218,12 @@ def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: Fram
         ok = (proj[:, 0] > -mx) & (proj[:, 0] < w + mx) & (proj[:, 1] > -my) & (proj[:, 1] < h + my)
         proj = proj[ok]
         seen = set(result.metas[dst].tolist())  # their own target's label already names them
-        sink.rec.log(paths.camera_pair_layer(dst, "projected", src), rr.LineStrips2D(
-            [to_viewer(r) for r in ring_strips(proj, _CUE_RADIUS_PX)], class_ids=metas[ok],
-            labels=["" if m in seen else f"m{m} from {src}" for m in metas[ok].tolist()],
-            radii=1.0, draw_order=9.0))
+        rings = [to_viewer(r) for r in ring_strips(proj, _CUE_RADIUS_PX)]
+        labels = ["" if m in seen else f"m{m} from {src}" for m in metas[ok].tolist()]
+        sink.log_changed(paths.camera_pair_layer(dst, "projected", src),
+                         strips_key(rings, labels) + metas[ok].tobytes(),
+                         partial(rr.LineStrips2D, rings, class_ids=metas[ok], labels=labels,
+                                 radii=1.0, draw_order=9.0))
     _transfer_error(sink, key, H, result.index)
 
 

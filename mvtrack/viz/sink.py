@@ -38,7 +38,7 @@ import uuid
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache, partial
 from typing import Any
 
 import numpy as np
@@ -156,8 +156,9 @@ def _inside_runs(pts: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> list[np.nda
             if len(run) > 1 and ok[0]]
 
 
+@lru_cache(maxsize=64)
 def _outline(size: tuple[int, int], n: int = 24) -> np.ndarray:
-    """(4n+1, 2) points around a frame's border (mvtrack pixel coordinates)."""
+    """(4n+1, 2) points around a frame's border (mvtrack pixel coordinates), read-only."""
     w, h = size
     x0, y0, x1, y1 = -0.5, -0.5, w - 0.5, h - 0.5
     t = np.linspace(0.0, 1.0, n, endpoint=False)
@@ -166,7 +167,9 @@ def _outline(size: tuple[int, int], n: int = 24) -> np.ndarray:
         np.c_[x1 - t * (x1 - x0), np.full(n, y1)], np.c_[np.full(n, x0), y1 - t * (y1 - y0)],
     ]
     pts = np.concatenate(sides)
-    return np.vstack([pts, pts[:1]])
+    out = np.vstack([pts, pts[:1]])
+    out.flags.writeable = False
+    return out
 
 
 class RerunSink:
