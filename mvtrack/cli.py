@@ -429,15 +429,13 @@ def bench(
         json_out.write_text(json.dumps(data, indent=2) + "\n")
 
 
-_ALL_SCENARIOS = "pair,tilted,gray,doors,one_edge,pillar,crowd,three"
-
-
 @app.command()
 def sweep(
     out_dir: Annotated[Path, typer.Option("--out", help="Directory for the runs, sweep.csv "
                                           "and sweep.json.")],
-    scenarios: Annotated[str, typer.Option(help="Comma-separated scenarios (see `mvtrack "
-                                           "generate --list`).")] = _ALL_SCENARIOS,
+    scenarios: Annotated[str | None, typer.Option(help="Comma-separated scenarios (see "
+                                                  "`mvtrack generate --list`; default: all).")
+                         ] = None,
     seeds: Annotated[str, typer.Option(help="Comma-separated generator seeds.")] = "0",
     variants: Annotated[list[str] | None, typer.Option(
         "--variant", help="NAME:KEY=VALUE[,KEY=VALUE...]: thresholds to compare with the "
@@ -453,11 +451,20 @@ def sweep(
 ) -> None:
     """Track and score generated clips (scenarios x seeds) with the default thresholds and
     each --variant: one row per run, then each variant's means and their change."""
-    from mvtrack.sweep import SweepPlan, Variant, parse_variant, run_sweep, variant_means
+    from mvtrack.generate import SCENARIOS
+    from mvtrack.sweep import (
+        SweepPlan,
+        Variant,
+        parse_variant,
+        run_sweep,
+        variant_means,
+        write_tables,
+    )
 
     try:
         plan = SweepPlan(
-            scenarios=[x.strip() for x in scenarios.split(",") if x.strip()],
+            scenarios=list(SCENARIOS) if scenarios is None else
+            [x.strip() for x in scenarios.split(",") if x.strip()],
             seeds=_seeds(seeds),
             variants=[Variant("defaults", ()), *(parse_variant(v) for v in variants or [])],
             out_dir=out_dir, frames=frames, size=parse_size(size), common=tuple(set_ or []),
@@ -486,7 +493,7 @@ def sweep(
         raise typer.Exit(code=130 if done.interrupted else 1)
     means = variant_means(rows)
     _print_sweep(rows, means)
-    _write_sweep(out_dir, rows, means)
+    out.print(f"wrote {', '.join(str(p) for p in write_tables(out_dir, rows, means))}")
     if done.interrupted:
         err.print(f"interrupted after {len(rows)} runs; their figures are in {out_dir}")
         raise typer.Exit(code=130)
@@ -528,19 +535,6 @@ def _print_sweep(rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> Non
             _fmt(m[k]) + ("" if m[f"d_{k}"] is None else f" ({m[f'd_{k}']:+.3f})")
             for k in COLUMNS))
     out.print(table)
-
-
-def _write_sweep(out_dir: Path, rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:
-    import csv
-
-    out_dir.mkdir(parents=True, exist_ok=True)  # no run may have made it (all failed)
-    with (out_dir / "sweep.csv").open("w", newline="", encoding="utf-8") as f:
-        writer = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
-        writer.writeheader()
-        writer.writerows(rows)
-    (out_dir / "sweep.json").write_text(
-        json.dumps({"runs": rows, "means": means}, indent=2) + "\n")
-    out.print(f"wrote {out_dir / 'sweep.csv'} and {out_dir / 'sweep.json'}")
 
 
 def _print_rows(title: str, rows: list[dict[str, Any]]) -> None:

@@ -14,11 +14,13 @@ values shows the run.
 
 :func:`summary_row` reduces a `metrics.json` to the figures the issues' targets use (worst
 camera, worst pair); :func:`variant_means` averages them per variant, with the difference
-from the first variant.
+from the first variant; :func:`write_tables` keeps both as `sweep.csv` and `sweep.json`.
 """
 
 from __future__ import annotations
 
+import csv
+import json
 import math
 import multiprocessing
 import shutil
@@ -31,7 +33,7 @@ from typing import Any
 
 __all__ = [
     "COLUMNS", "SweepPlan", "SweepResult", "Variant", "check_plan", "clip_name", "parse_variant",
-    "run_sweep", "summary_row", "variant_means",
+    "run_sweep", "summary_row", "variant_means", "write_tables",
 ]
 
 COLUMNS = ("idf1", "consistency", "idf1_online", "recall_min", "precision_min",
@@ -311,17 +313,13 @@ def variant_means(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
     out = []
     for name in names:
         mine = [r for r in rows if r["variant"] == name]
+        firsts = [(r, by.get((r["scenario"], r["seed"], names[0]))) for r in mine]
         row: dict[str, Any] = {"variant": name, "runs": len(mine)}
         for col in COLUMNS:
             row[col] = _mean([r[col] for r in mine])
-        for col in COLUMNS:
-            if name == names[0]:
-                row[f"d_{col}"] = None
-                continue
-            pairs = [(r[col], by[r["scenario"], r["seed"], names[0]][col]) for r in mine
-                     if (r["scenario"], r["seed"], names[0]) in by]
-            both = [(a, b) for a, b in pairs if a is not None and b is not None]
-            row[f"d_{col}"] = _mean([a - b for a, b in both])
+            row[f"d_{col}"] = None if name == names[0] else _mean(
+                [r[col] - f[col] for r, f in firsts
+                 if f is not None and r[col] is not None and f[col] is not None])
         out.append(row)
     return out
 
@@ -329,3 +327,17 @@ def variant_means(rows: Sequence[Mapping[str, Any]]) -> list[dict[str, Any]]:
 def _mean(values: Sequence[Any]) -> float | None:
     known = [float(v) for v in values if v is not None]
     return sum(known) / len(known) if known else None
+
+
+def write_tables(out_dir: Path, rows: Sequence[Mapping[str, Any]],
+                 means: Sequence[Mapping[str, Any]]) -> tuple[Path, Path]:
+    """``out_dir/sweep.csv`` (one row per run) and ``out_dir/sweep.json`` (``runs`` and
+    ``means``); the folder is made when no run made it (all failed). Returns both paths."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    csv_path, json_path = out_dir / "sweep.csv", out_dir / "sweep.json"
+    with csv_path.open("w", newline="", encoding="utf-8") as f:
+        writer = csv.DictWriter(f, fieldnames=list(rows[0]), lineterminator="\n")
+        writer.writeheader()
+        writer.writerows(rows)
+    json_path.write_text(json.dumps({"runs": list(rows), "means": list(means)}, indent=2) + "\n")
+    return csv_path, json_path
