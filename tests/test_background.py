@@ -18,12 +18,15 @@ from mvtrack.params import BackgroundConfig
 from mvtrack.stages.background import (
     BackgroundResult,
     BackgroundState,
+    SizeModel,
     _fit_sizes,
+    _grow_down,
     background_step,
     min_area_at,
     stacked_boxes,
     train_background,
 )
+from mvtrack.stages.feet import feet_pca
 from mvtrack.stages.median import clamp, lower_median, median_network, order_statistics
 
 H, W = 120, 160
@@ -598,6 +601,62 @@ def test_size_line_is_robust_to_people_who_lost_their_legs() -> None:
     assert _fit_sizes(np.c_[rows, heights][:20], 240, cfg) is None  # too few
     clustered = np.c_[rng.uniform(100, 120, 100), rng.uniform(30, 35, 100)]
     assert _fit_sizes(clustered, 240, cfg) is None  # rows too close: no slope to trust
+
+
+@pytest.mark.parametrize("regrow_legs", [True, False])
+@pytest.mark.parametrize("legs", ["shadow", "thin"])
+def test_lost_legs_are_grown_back(regrow_legs: bool, legs: str) -> None:
+    """A walker whose legs leave the MVO: trousers as dark as a shadow on ground of their hue
+    (the shadow test takes them), or legs 2 px wide (the opening removes them). The MVO ends
+    at the hips. The camera's size line (height = 0.5 x feet row) says where the feet are: the
+    legs are grown back down to them and the feet are found within 2.5 px, while the cast
+    shadow running sideways from the feet stays a shadow."""
+    rng = np.random.default_rng(8)
+    ground = _ground(rng)
+    cfg = dataclasses.replace(CFG, regrow_legs=regrow_legs)
+    state = _train(ground, rng, cfg=cfg)
+    rows = np.linspace(40.0, 119.0, 60)  # samples on the line: refits keep it
+    state = dataclasses.replace(state, sizes=SizeModel(np.c_[rows, 0.5 * rows], (0.5, 0.0)))
+    torso = np.clip(np.array([40, 40, 200]) + rng.normal(0, 25, (25, 12, 3)), 0, 255)
+    for t in range(6):
+        x = 30 + 3 * t
+        frame = ground.astype(np.float64)
+        frame[50:75, x : x + 12] = torso  # head and torso: rows 50-74, feet at row 100
+        if legs == "shadow":  # 60 % of the ground's value, its hue
+            frame[75:100, x + 1 : x + 5] *= 0.6
+            frame[75:100, x + 7 : x + 11] *= 0.6
+        else:  # blue jeans, thinner than the 3 px opening
+            frame[75:100, x + 2 : x + 4] = [150, 60, 30]
+            frame[75:100, x + 8 : x + 10] = [150, 60, 30]
+        frame[95:100, x + 10 : x + 40] *= 0.6  # cast shadow towards the right
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+    assert r.blobs.is_mvo.sum() == 1
+    rows, cols = np.nonzero(r.mvo_labels)
+    feet = feet_pca(r.mvo_labels > 0)
+    if regrow_legs:
+        assert rows.max() == 99 and cols.max() <= x + 11 + 5  # legs back, a little shadow
+        assert np.hypot(*(feet.point - [x + 6, 100])) < 2.5
+        assert r.fg_shadow[96:99, x + 18 : x + 38].all()
+        assert not (r.fg_shadow & (r.mvo_labels > 0)).any()
+    else:
+        assert rows.max() < 77
+        assert feet.point[1] < 77
+        if legs == "shadow":
+            assert r.fg_shadow[80:95, x + 2 : x + 4].all()
+        else:
+            assert r.distance[80:95, x + 2 : x + 4].min() > CFG.t_low
+            assert not r.candidate[80:95, x + 2 : x + 4].any()
+
+
+@settings(max_examples=60, deadline=None)
+@given(body=arrays(bool, (9, 13)), shade=arrays(bool, (9, 13)))
+def test_grow_down_equals_row_by_row_reachability(body: np.ndarray, shade: np.ndarray) -> None:
+    reached = np.zeros_like(shade)
+    reached[0] = body[0]
+    for r in range(1, len(shade)):
+        spread = np.convolve(reached[r - 1].astype(int), [1, 1, 1], "same") > 0
+        reached[r] = spread & (shade[r] | body[r])
+    assert np.array_equal(_grow_down(body, shade), reached & shade)
 
 
 def _walker(height: int, rng: np.random.Generator) -> np.ndarray:
