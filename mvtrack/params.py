@@ -294,6 +294,22 @@ class TrackerConfig(_Checked):
     fragment_max_aspect: float = param(
         4.5, "fragments: largest height / width of the two boxes' union", 0.5
     )
+    # A leg that came apart for a frame (a split) becomes a target, and when it rejoins its
+    # person the merge division kept it for as long as the two touched: generated one_edge
+    # seed 0 cam1, a leg tracked beside its person for 70 frames (precision 0.883 -> 0.981).
+    # Such a part lies inside the person's box, is much shorter and shares the feet row; a
+    # person behind another is inside the box too but stands further back (feet higher up).
+    # `mvtrack sweep`, 24 clips x RANSAC draws 0-2: precision (worst camera) 0.918 -> 0.940,
+    # IDF1 0.829 -> 0.836, consistency 0.823 -> 0.843; PETS View_001 unchanged.
+    part_contained_frac: float = param(
+        0.8, "leg parts: share of the part's box inside its person's box", 0.0, 1.0
+    )
+    part_max_height_frac: float = param(
+        0.5, "leg parts: the part is shorter than this fraction of its person (0 = off)", 0.0, 1.0
+    )
+    part_bottom_frac: float = param(
+        0.15, "leg parts: bottoms within this fraction of the person's height", 0.0, 1.0
+    )
     # A group that enters already merged is one blob the merge division never saw apart: an
     # unmerged blob wide enough for two people whose top silhouette (highest foreground row per
     # column) has two or more heads is cut between the heads into new targets.

@@ -131,6 +131,32 @@ def test_stacked_fragment_targets_reunite_when_their_blobs_join() -> None:
     assert r.labels.tolist() == [1, 2] and r.merges == ((1, (1, 2)),)
 
 
+@pytest.mark.parametrize("part_max_height_frac", [0.5, 0.0])
+def test_a_leg_that_came_apart_rejoins_its_person(part_max_height_frac: float) -> None:
+    """A striding person (torso and back leg one blob) whose front leg comes apart for a frame
+    gets a second label; when the leg joins again it is a part of its person (inside the box,
+    much shorter, the same feet row) and retires, instead of being divided off as a target of
+    its own for as long as the two touch."""
+    person = [(20, 10, 35, 50), (20, 51, 24, 72)]  # torso, back leg
+    frames = [
+        blobs(*person, (30, 51, 34, 72)),
+        blobs(*person, (30, 54, 34, 72)),  # rows 51-53 of the front leg are lost
+        blobs(*person, (30, 51, 34, 72)),
+        blobs(*person, (30, 51, 34, 72)),
+    ]
+    cfg = replace(CFG, part_max_height_frac=part_max_height_frac)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    assert res[1].labels.tolist() == [1, 2] and res[1].splits == ((1, (2,)),)
+    if part_max_height_frac:
+        assert res[2].reunions == ((1, (2,)),) and res[2].retirements == (2,)
+        assert res[3].labels.tolist() == [1]
+    else:
+        assert res[2].merges == ((1, (1, 2)),) and res[3].labels.tolist() == [1, 2]
+
+
 def test_split_off_fragment_stays_with_its_parent() -> None:
     frames = [
         blobs((20, 10, 33, 70)),

@@ -17,7 +17,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
 2. A blob that is the continuation of exactly one previous target inherits its label.
 3. A blob that is the continuation of two or more previous targets is a *merge*: its pixels are
    divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
-   target that receives no pixel is fully occluded and is retired.
+   target that receives no pixel is fully occluded and is retired. Targets that were parts of
+   one person (stacked head and body, or a leg inside its person's box) reunite instead: the
+   largest keeps its label (:func:`_reunite`, ``reunite_fragments``).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
@@ -182,8 +184,8 @@ class TrackResult:
     splits:           (parent label, (new child labels...)) per splitting target
     merges:           (blob id, (labels...)) per merged blob
     merge_divisions:  the evidence of each merge, same order as ``merges``
-    reunions:         (kept label, (absorbed labels...)) per blob that merged stacked fragment
-                      targets of one person (masks only); the absorbed labels are retired
+    reunions:         (kept label, (absorbed labels...)) per blob that merged fragment targets
+                      of one person (masks only); the absorbed labels are retired
     groups:           (blob id, (labels left to right...)) per unmerged blob cut into people
                       by :func:`group_cuts` (masks only)
     """
@@ -480,6 +482,25 @@ def _stacked(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     )
 
 
+def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    """(K, K) bool, [i, j]: box i is a lower part of box j (a leg or the feet of that person):
+    at least ``part_contained_frac`` of its area inside j, under ``part_max_height_frac`` of
+    j's height, its bottom within ``part_bottom_frac`` of j's height from j's bottom. A person
+    behind another is contained too, but stands further back: the feet are higher up."""
+    x, y, w, h = (box_xywh[:, k][:, None] for k in range(4))
+    xj, yj, wj, hj = (box_xywh[:, k][None, :] for k in range(4))
+    inter_w = np.clip(np.minimum(x + w, xj + wj) - np.maximum(x, xj), 0.0, None)
+    inter_h = np.clip(np.minimum(y + h, yj + hj) - np.maximum(y, yj), 0.0, None)
+    inside = inter_w * inter_h >= cfg.part_contained_frac * np.maximum(w * h, 1e-9)
+    part = (
+        inside
+        & (h < cfg.part_max_height_frac * hj)
+        & (np.abs((y + h) - (yj + hj)) <= cfg.part_bottom_frac * hj)
+    )
+    np.fill_diagonal(part, False)
+    return part
+
+
 def _target_size(t: TargetTrack) -> float:
     return float(t.template.sum()) if t.template is not None else float(t.box_xywh[2:].prod())
 
@@ -496,13 +517,16 @@ def _template_box(t: TargetTrack) -> np.ndarray:
 def _reunite(
     heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame, cfg: TrackerConfig
 ) -> tuple[int, ...]:
-    """The heirs of a merged blob that are distinct people: of every group of stacked fragment
-    targets (connected by :func:`_stacked` on their previous boxes) only the largest stays; the
-    others are recorded as absorbed in ``work.reunions`` and, receiving no pixel, retire."""
+    """The heirs of a merged blob that are distinct people: of every group of fragment targets
+    (stacked, :func:`_stacked`, or a leg inside its person's box, :func:`_legs_of`, on their
+    previous boxes) only the largest stays; the others are recorded as absorbed in
+    ``work.reunions`` and, receiving no pixel, retire."""
     if not cfg.reunite_fragments:
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
-    n_groups, group = connected_components(csr_matrix(_stacked(boxes, cfg)), directed=False)
+    legs = _legs_of(boxes, cfg)
+    linked = _stacked(boxes, cfg) | legs | legs.T
+    n_groups, group = connected_components(csr_matrix(linked), directed=False)
     if n_groups == len(heirs):
         return heirs
     kept = []
