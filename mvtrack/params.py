@@ -121,12 +121,13 @@ class BackgroundConfig(_Checked):
     # Dark gray trousers on gray pavement pass the shadow test, and thin lower legs fall apart
     # into fragments that the opening removes or that fail the MVO tests: such people end at
     # the hips or knees and their feet land there (crops: tilted cam1). Legs grown back below
-    # the torso down to the feet row the size line predicts (_reclaim_legs), on fully visible
-    # generated people, seed 0: feet p90 10.6/11.3 px -> 8.5/7.0 (pair cam0/cam1), 9.9/14.0
-    # -> 8.4/7.2 (tilted). `mvtrack sweep`, 24 clips x RANSAC draws 0-2: IDF1 0.808 -> 0.828,
-    # consistency 0.768 -> 0.822, recall 0.902 -> 0.911, worst camera's foot median 4.52 ->
-    # 4.03 px. Growing through foreground shadow only (not D_B > T_L fragments): IDF1 0.809.
-    # Corridor width 0.06/0.12/0.25 and min gap 0.05/0.1/0.2 were compared on pair/tilted.
+    # the torso down to the feet row the size line predicts (_regrow_legs), on fully visible
+    # generated people, seed 0: feet p90 10.6/11.3 px -> 8.5/6.9 (pair cam0/cam1), 9.9/14.0
+    # -> 8.4/7.3 (tilted). `mvtrack sweep`, 24 clips x RANSAC draws 0-2: IDF1 0.808 -> 0.829,
+    # consistency 0.768 -> 0.823, recall 0.902 -> 0.911, worst camera's foot median 4.52 ->
+    # 4.00 px. Growing through foreground shadow only (not D_B > T_L fragments): IDF1 0.809.
+    # Corridor width 0.06/0.12/0.25 and min gap 0.05/0.1/0.2 were compared on pair/tilted;
+    # legs_stop_frac -0.08 (past the predicted feet) over draws 0 and 1: IDF1 0.840 -> 0.838.
     regrow_legs: bool = param(
         True, "changed pixels (shadow, D_B > T_L) growing down from an MVO's torso to the feet "
         "row the size line predicts are its legs"
