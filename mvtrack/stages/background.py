@@ -75,6 +75,7 @@ __all__ = [
     "BlobTable",
     "SizeModel",
     "background_step",
+    "box_intersections",
     "min_area_at",
     "stacked_boxes",
     "train_background",
@@ -603,7 +604,8 @@ def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray) -
 
 def _regrow_legs(
     mvo_labels: np.ndarray,
-    changed: np.ndarray,
+    shadow: np.ndarray,
+    dist8: np.ndarray,
     blobs: BlobTable,
     sizes: SizeModel,
     cfg: BackgroundConfig,
@@ -615,17 +617,18 @@ def _regrow_legs(
     hips or the knees and its feet land there. The size line predicts where the feet of an
     MVO whose top edge is at row y are: the edge y_f with y_f - y = height at y_f. An MVO
     that ends more than ``legs_min_gap_frac`` of that height above where its legs should stop
-    (``legs_stop_frac`` of the height above y_f) takes the ``changed`` pixels (shadow or
-    D_B > T_L) of no other MVO that grow down from its torso (:func:`_grow_down`)
-    in the corridor below it: rows from y + 0.3 (y_f - y) down to where the legs stop;
-    columns of the torso (rows 0.15-0.3 of the height) widened by ``legs_width_frac`` of the
-    height each side, for the stride. A cast shadow leaves that corridor, lies beyond y_f, or
-    runs sideways, and stays a shadow. Blobs wider than 0.8 of the predicted height (groups)
-    are left as they are.
+    (``legs_stop_frac`` of the height above y_f) takes the changed pixels (``shadow`` or
+    D_B > T_L, ``dist8`` the 8-bit D_B) of no other MVO that grow down from its torso
+    (:func:`_grow_down`) in the corridor below it: rows from y + 0.3 (y_f - y) down to where
+    the legs stop; columns of the torso (rows 0.15-0.3 of the height) widened by
+    ``legs_width_frac`` of the height each side, for the stride. A cast shadow leaves that
+    corridor, lies beyond y_f, or runs sideways, and stays a shadow. Blobs wider than 0.8 of
+    the predicted height (groups) are left as they are.
     """
     if not cfg.regrow_legs or sizes.line is None or sizes.line[0] >= 1.0:
         return False
     slope, intercept = sizes.line
+    t_low = _u8_floor(cfg.t_low)
     grown = False
     rows, cols = mvo_labels.shape
     for (x, y, w, h), label in zip(
@@ -652,7 +655,8 @@ def _regrow_legs(
         c1 = min(cols, x0 + int(torso_cols[-1]) + 1 + reach)
         r0 = start - 1  # one row of the MVO above the corridor: where the legs start
         window = mvo_labels[r0:stop, c0:c1]
-        legs = _grow_down(window == label, changed[r0:stop, c0:c1] & (window == 0))
+        changed = shadow[r0:stop, c0:c1] | (dist8[r0:stop, c0:c1] > t_low)
+        legs = _grow_down(window == label, changed & (window == 0))
         window[legs] = label
         grown |= bool(legs.any())
     return grown
@@ -714,6 +718,15 @@ def stacked_boxes(
     return stacked
 
 
+def box_intersections(box_xywh: np.ndarray) -> np.ndarray:
+    """(K, K) float64: the area each pair of boxes (K, 4) [x, y, w, h] shares (0 apart).
+    Shared with the tracker, which tells a leg from its person by it."""
+    x0, y0, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
+    over_x = np.minimum(x0[:, None] + w[:, None], x0 + w) - np.maximum(x0[:, None], x0)
+    over_y = np.minimum(y0[:, None] + h[:, None], y0 + h) - np.maximum(y0[:, None], y0)
+    return np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
+
+
 def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
     """(K, K) bool: components that look like fragments of one person: stacked
     (:func:`stacked_boxes`) or one box inside the other (at least ``group_contained_frac`` of
@@ -725,11 +738,8 @@ def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
         cfg.group_y_overlap_frac,
         cfg.group_max_aspect,
     )
-    x0, y0, w, h = box_xywh.T
-    over_x = np.minimum(x0[:, None] + w[:, None], x0 + w) - np.maximum(x0[:, None], x0)
-    over_y = np.minimum(y0[:, None] + h[:, None], y0 + h) - np.maximum(y0[:, None], y0)
-    inter = np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
-    area = w * h
+    area = box_xywh[:, 2] * box_xywh[:, 3]
+    inter = box_intersections(box_xywh)
     return stacked | (inter >= cfg.group_contained_frac * np.minimum(area[:, None], area))
 
 
@@ -931,8 +941,7 @@ def background_step(
     mvo_age = np.zeros(candidate.shape, np.uint16)
     age_of_mvo = np.minimum(age[blobs.is_mvo], 65535)  # in MVO label order
     mvo_age.ravel()[mvo_index] = age_of_mvo[mvo_labels.ravel()[mvo_index] - 1]
-    if _regrow_legs(mvo_labels, shadow | (dist8 > _u8_floor(cfg.t_low)), blobs, state.sizes,
-                    cfg):
+    if _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, cfg):
         mvo = mvo_labels > 0
         shadow = shadow & ~mvo
         mvo_index = np.flatnonzero(mvo)

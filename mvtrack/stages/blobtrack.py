@@ -61,7 +61,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import stacked_boxes
+from mvtrack.stages.background import box_intersections, stacked_boxes
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -487,15 +487,13 @@ def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     at least ``part_contained_frac`` of its area inside j, under ``part_max_height_frac`` of
     j's height, its bottom within ``part_bottom_frac`` of j's height from j's bottom. A person
     behind another is contained too, but stands further back: the feet are higher up."""
-    x, y, w, h = (box_xywh[:, k][:, None] for k in range(4))
-    xj, yj, wj, hj = (box_xywh[:, k][None, :] for k in range(4))
-    inter_w = np.clip(np.minimum(x + w, xj + wj) - np.maximum(x, xj), 0.0, None)
-    inter_h = np.clip(np.minimum(y + h, yj + hj) - np.maximum(y, yj), 0.0, None)
-    inside = inter_w * inter_h >= cfg.part_contained_frac * np.maximum(w * h, 1e-9)
+    w, h, bottom = box_xywh[:, 2], box_xywh[:, 3], box_xywh[:, 1] + box_xywh[:, 3]
+    area = np.maximum(w * h, 1e-9)[:, None]
+    inside = box_intersections(box_xywh) >= cfg.part_contained_frac * area
     part = (
         inside
-        & (h < cfg.part_max_height_frac * hj)
-        & (np.abs((y + h) - (yj + hj)) <= cfg.part_bottom_frac * hj)
+        & (h[:, None] < cfg.part_max_height_frac * h)
+        & (np.abs(bottom[:, None] - bottom) <= cfg.part_bottom_frac * h)
     )
     np.fill_diagonal(part, False)
     return part
