@@ -166,6 +166,25 @@ def test_fov_mode_takes_fov_events_only() -> None:
         assert results[0].pairs() == linked, method
 
 
+def test_comotion_association_replaces_an_fov_link_of_its_targets() -> None:
+    """Before H exists, a wrong FOV link (1, 6) from one event gives way to the co-motion
+    bootstrap's (1, 5), many frames of evidence; links that did not come from an FOV event
+    stay. Generated 'three' with 8 people at a time, seed 0: cam0-cam2 consistency 0.41 ->
+    0.60 (the FOV link had kept the right pair from the matcher and fed wrong markers)."""
+    a = targets([1, 2], [(10, 100), (60, 200)])
+    b = targets([5, 6, 7], [(110, 100), (160, 200), (300, 50)])
+    fov_event = FovEvent(0, "B", 6, "right", "enter")
+    comotion = FovEvent(1, "B", 5, "none", "comotion")
+    _state, results = run([(a, b)] * 2, h=NO_H,
+                          assoc={0: [(1, 6, fov_event)], 1: [(1, 5, comotion)]})
+    assert results[0].pairs() == ((1, 6),)
+    assert results[1].pairs() == ((1, 5),)
+    assert results[1].links[0].source == "comotion"
+    _state, results = run([(a, b)] * 2, h=NO_H,
+                          assoc={0: [(1, 6, fov_event)], 1: [(1, 5, fov_event)]})
+    assert results[1].pairs() == ((1, 6),)  # one FOV event does not undo another
+
+
 def test_confirmations_count_evidence() -> None:
     a, b = targets([1], [(10, 100)]), targets([5], [(111, 100)])
     state, results = run([(a, b)] * 7, assoc={0: [(1, 5)]})

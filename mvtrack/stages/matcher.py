@@ -62,7 +62,8 @@ Pair = tuple[int, int]
 class Link:
     """One link between an A target and a B target.
 
-    source:        "fov" (FOV association), "create" (Hungarian, confirmed), "reattach"
+    source:        "fov" (FOV association), "comotion" (the pair's co-motion bootstrap),
+                   "create" (Hungarian, confirmed), "reattach"
     since:         frame the link was made
     confirmations: frames in which d < threshold (the link's evidence)
     bad_streak:    consecutive frames with d >= threshold (breaks at ``break_after_frames``)
@@ -260,27 +261,35 @@ def _prune(state: MatchState, f: _Frame, frame: int, window: int) -> tuple[dict,
 def _add_fov(f: _Frame, associations: Sequence[tuple], frame: int,
              gate: tuple[np.ndarray, float] | None, fov_only: bool) -> None:
     """FOV associations between present, unlinked targets become links (``fov_only``: only
-    those of FOV events, not the co-motion bootstrap's).
+    those of FOV events, not the co-motion bootstrap's). A co-motion association first
+    replaces the FOV links of its two targets (:func:`mvtrack.stages.pair._bootstrap` makes
+    it from many frames; an FOV link from one event, perhaps on a line from few events).
 
     ``gate``: (cost, threshold) when H drives matching: an association H contradicts
     (d >= threshold) is rejected at once rather than linked and broken later; one it does not
     is confirmed (this runs after :func:`_refine`, which freed the targets of broken links).
     """
     for assoc in associations:
-        if fov_only and len(assoc) > 2 and assoc[2].kind == "comotion":
+        comotion = len(assoc) > 2 and assoc[2].kind == "comotion"
+        if fov_only and comotion:
             continue  # the FOV-only baseline (Khan & Shah) links on FOV events alone
         a, b = int(assoc[0]), int(assoc[1])
-        linked = any(link.a == a or link.b == b for link in f.links)
-        if a not in f.index_a or b not in f.index_b or linked:
+        if a not in f.index_a or b not in f.index_b:
             continue
+        if comotion:  # many frames of co-motion outweigh one FOV event: replace its links
+            f.links = [link for link in f.links
+                       if link.source != "fov" or (link.a != a and link.b != b)]
+        if any(link.a == a or link.b == b for link in f.links):
+            continue
+        source = "comotion" if comotion else "fov"
         if gate is None:
-            f.links.append(Link(a, b, "fov", frame))
+            f.links.append(Link(a, b, source, frame))
         else:
             d = float(gate[0][f.index_a[a], f.index_b[b]])
             if d >= gate[1]:
                 f.fov_rejected.append((a, b, d))
                 continue
-            f.links.append(Link(a, b, "fov", frame, confirmations=1))  # consistent: evidence
+            f.links.append(Link(a, b, source, frame, confirmations=1))  # consistent: evidence
             f.confirmed.append((a, b, d))
         f.fov_added.append((a, b))
 
