@@ -291,6 +291,31 @@ def test_person_who_stops_is_held_for_a_bounded_time(hold: int) -> None:
         assert not mvo[first + hold] and not held[first + hold]  # released after the bound
 
 
+@pytest.mark.parametrize("frac", [0.5, 1.0])
+def test_what_is_left_of_a_tracked_person_stays_an_mvo(frac: float) -> None:
+    """A walker of whom only the top 5 rows show for three frames (70 px, under T_area = 100):
+    the remnant of last frame's MVO stays an MVO with ``hold_area_frac`` 0.5, not with 1 (off).
+    A piece of the same size beside someone detected whole is never one."""
+    rng = np.random.default_rng(5)
+    ground, person = _ground(rng), _person(rng)
+    cfg = dataclasses.replace(CFG, hold_area_frac=frac)
+    state = _train(ground, rng, cfg=cfg)
+    for t in range(10):
+        patch = person[:5] if t in (6, 7, 8) else person
+        state, r = background_step(state, _noisy(_paste(ground, patch, 20 + 3 * t, 50), rng), cfg)
+        assert r.blobs.area_px.max() < 100 or t not in (6, 7, 8)
+        assert r.blobs.is_mvo.sum() == (0 if frac == 1.0 and t in (6, 7, 8) else 1), t
+    state = _train(ground, rng, cfg=cfg)
+    wide = np.concatenate([person, person[:, :8]], axis=1)  # 30x22: the piece is still attached
+    for t in range(8):
+        frame = _paste(ground, wide if t < 5 else person, 20 + 2 * t, 50)
+        if t >= 5:  # the piece comes apart: 5x12 px, 3 px right of the body
+            frame = _paste(frame, person[:5, :12], 20 + 2 * t + 17, 50)
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+        small = r.blobs.area_px < 100
+        assert small.any() == (t >= 5) and not r.blobs.is_mvo[small].any(), t
+
+
 def test_walkers_crossing_in_one_blob_move_by_frame_difference() -> None:
     """Two people walking in opposite directions in one blob: their flow cancels, their
     pixels change."""

@@ -145,6 +145,7 @@ class BackgroundState:
     mvo_age:     (H,W) uint16, read-only, or None before the first step: last frame's MVO
                  pixels, 1 + the frames in a row their blob was held without moving (1: it
                  moved); 0 elsewhere
+    mvo_prev:    (H,W) int32, read-only, or None before the first step: last frame's MVO labels
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
@@ -157,6 +158,7 @@ class BackgroundState:
     recent_v: tuple[np.ndarray, ...]
     frame_index: int
     mvo_age: np.ndarray | None = None
+    mvo_prev: np.ndarray | None = None
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
     sizes: SizeModel = field(default_factory=SizeModel)
 
@@ -183,9 +185,12 @@ class BlobTable:
                   when NaN)
     moving_ok:    (K,) bool, flow_ok or changed_frac >= min_changed_frac
     edge_ok:      (K,) bool, not a ghost by the edge test (True when the test is off)
-    held:         (K,) bool, not moving but kept an MVO: it overlaps last frame's MVOs and
-                  has been held fewer than ``mvo_hold_frames`` frames in a row
-    is_mvo:       (K,) bool, area_ok & strong_ok & edge_ok & (moving_ok | held)
+    held:         (K,) bool, kept an MVO though not moving, or though under T_area (but above
+                  ``hold_area_frac`` of it): it passes the other tests, overlaps last frame's
+                  MVOs and has been held fewer than ``mvo_hold_frames`` frames in a row; a
+                  small one must be the largest piece of a last-frame MVO that no full-size
+                  MVO overlaps
+    is_mvo:       (K,) bool, (area_ok & strong_ok & edge_ok & moving_ok) | held
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
     box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
     min_area_px:  float, the T_area this frame size used (:func:`min_area_at`)
@@ -495,6 +500,34 @@ def _blob_hold_age(pixels: _BlobPixels, mvo_age: np.ndarray | None, k: int) -> n
     return least[1:]
 
 
+def _prev_overlaps(pixels: _BlobPixels, mvo_prev: np.ndarray | None) -> np.ndarray:
+    """(P, 2) int64 distinct (blob label, last frame's MVO label) pairs that share a pixel."""
+    if mvo_prev is None:
+        return np.zeros((0, 2), np.int64)
+    prev = mvo_prev.ravel()[pixels.index].astype(np.int64)
+    hit = prev > 0
+    return np.unique(np.c_[pixels.label[hit].astype(np.int64), prev[hit]], axis=0)
+
+
+def _small_remnants(small: np.ndarray, full: np.ndarray, area: np.ndarray,
+                    overlaps: np.ndarray) -> np.ndarray:
+    """(K,) bool: the ``small`` blobs that are all that is left of a last-frame MVO: no
+    ``full`` MVO of this frame overlaps it, and no larger small blob does."""
+    if not len(overlaps):
+        return np.zeros(len(small), bool)
+    blob, prev = overlaps[:, 0] - 1, overlaps[:, 1]
+    taken = np.zeros(int(prev.max()) + 1, bool)
+    taken[prev[full[blob]]] = True
+    largest = np.zeros(len(taken), np.int64)  # per last-frame MVO, its largest small blob's area
+    np.maximum.at(largest, prev[small[blob]], area[blob[small[blob]]])
+    ok = small[blob] & ~taken[prev] & (area[blob] >= largest[prev])
+    bad = np.zeros(len(small), bool)
+    np.logical_or.at(bad, blob[~ok], True)
+    out = np.zeros(len(small), bool)
+    out[blob[ok]] = True
+    return out & ~bad
+
+
 def _flow(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
     """Dense DIS flow of the current frame's pixels, (h,w,2) float32 [dx, dy] in full-resolution
     px/frame: the pixel at x now was at x - flow(x) in ``prev``.
@@ -516,6 +549,7 @@ class _BlobEvidence:
     edge_frame: np.ndarray
     edge_background: np.ndarray
     hold_age: np.ndarray
+    prev_overlaps: np.ndarray
 
 
 def min_area_at(shape: tuple[int, ...], cfg: BackgroundConfig) -> float:
@@ -556,8 +590,13 @@ def _blob_table(
     with np.errstate(invalid="ignore"):
         edge_ok = ~(ev.edge_frame < cfg.edge_ghost_ratio * ev.edge_background)
     still_ok = area_ok & strong_ok & edge_ok
-    held = still_ok & ~moving_ok & (ev.hold_age > 0) & (ev.hold_age <= cfg.mvo_hold_frames)
-    is_mvo = still_ok & (moving_ok | held)
+    in_hold = (ev.hold_age > 0) & (ev.hold_age <= cfg.mvo_hold_frames)
+    full = still_ok & (moving_ok | in_hold)
+    # What is left of a small tracked person (a torso whose legs and head came apart) stays
+    # an MVO, unless it is a piece of someone still detected whole.
+    small = ~area_ok & (area > cfg.hold_area_frac * thresholds) & strong_ok & edge_ok & in_hold
+    held = (full & ~moving_ok) | _small_remnants(small, full, area, ev.prev_overlaps)
+    is_mvo = (still_ok & moving_ok) | held
     age = np.where(held, ev.hold_age + 1, 1) * is_mvo
     mvo_label = np.zeros(k, np.int32)
     mvo_label[is_mvo] = np.arange(1, int(is_mvo.sum()) + 1, dtype=np.int32)
@@ -932,6 +971,7 @@ def background_step(
         *_blob_motion(pixels, stats[1:, cv2.CC_STAT_AREA], frame.shape[1], motion),
         *_blob_edges(candidate, blob_labels, (planes[2], state.model.v), k, cfg),
         _blob_hold_age(pixels, state.mvo_age, k),
+        _prev_overlaps(pixels, state.mvo_prev),
     )
     min_area = min_area_at(candidate.shape, cfg)
     thresholds = _area_thresholds(stats, state.sizes, min_area, cfg)
@@ -967,6 +1007,7 @@ def background_step(
         recent_v=(*state.recent_v, flow_gray)[-cfg.flow_gap_frames :],
         frame_index=state.frame_index + 1,
         mvo_age=_readonly(mvo_age),
+        mvo_prev=_readonly(mvo_labels),
         shared=shared,
         sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
     )
