@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -114,6 +116,25 @@ def test_degenerate_marker_sets_give_failures_not_exceptions() -> None:
             result = fit_homography(pa, pb, cfg)
             assert isinstance(result, HomographyFailure), name
             assert not result and result.reason, name
+
+
+def test_the_area_markers_must_cover_shrinks_with_small_people() -> None:
+    """Markers within 30 x 30 px in B (4*sigma1*sigma2 about 300 px^2, under 400) are too few
+    for people 60 px tall but enough for people 20 px tall (0.3 * 20^2 = 120 px^2); the
+    homography from them is exact either way, only the rule changes."""
+    rng = np.random.default_rng(4)
+    pts_b = 100 + rng.uniform(0, 30, (30, 2))
+    a_from_b = np.array([[8.0, 0.5, -600.0], [0.2, 7.0, -500.0], [1e-4, 2e-4, 1.0]])
+    pts_a = apply_homography(a_from_b, pts_b)  # A: about 8x closer, markers well spread
+    for method in ("dlt", "robust"):
+        cfg = HomographyConfig(method=method, min_markers=6)
+        big = fit_homography(pts_a, pts_b, cfg, heights=(160.0, 60.0))
+        small = fit_homography(pts_a, pts_b, cfg, heights=(160.0, 20.0))
+        assert not big and "too small an area in the second camera" in big.reason, method
+        assert small and small.quality_px < 1e-6, method
+        off = fit_homography(pts_a, pts_b, replace(cfg, min_area_heights2=0.0),
+                             heights=(160.0, 20.0))
+        assert not off, method
 
 
 def test_folding_correspondences_are_rejected() -> None:

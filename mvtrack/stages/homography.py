@@ -163,16 +163,25 @@ def spread(points: np.ndarray) -> tuple[float, float]:
     return float(sv[1] / sv[0]), float(4.0 * sv[0] * sv[1])
 
 
-def degeneracy_reason(pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig) -> str:
-    """Why these markers cannot give a trustworthy homography, or "" when they can."""
+def degeneracy_reason(pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig,
+                      heights: tuple[float, float] | None = None) -> str:
+    """Why these markers cannot give a trustworthy homography, or "" when they can.
+
+    ``heights``: the people's typical height (px) at the markers in each camera; where people
+    are small the area the markers must cover shrinks with them (``cfg.min_area_heights2``).
+    """
     if len(pts_a) < cfg.min_markers:
         return f"{len(pts_a)} markers, need {cfg.min_markers}"
-    for name, pts in (("first", pts_a), ("second", pts_b)):
+    for k, (name, pts) in enumerate((("first", pts_a), ("second", pts_b))):
         ratio, area = spread(pts)
         if ratio < cfg.min_spread_ratio:
             return f"markers nearly collinear in the {name} camera (spread ratio {ratio:.3f})"
-        if area < cfg.min_area_px2:
-            return f"markers cover too small an area in the {name} camera ({area:.0f} px^2)"
+        least = cfg.min_area_px2
+        if heights is not None and cfg.min_area_heights2 > 0:
+            least = min(least, cfg.min_area_heights2 * heights[k] ** 2)
+        if area < least:
+            return (f"markers cover too small an area in the {name} camera ({area:.0f} px^2, "
+                    f"need {least:.0f})")
     return ""
 
 
@@ -397,6 +406,7 @@ def fit_homography(
     cfg: HomographyConfig,
     rng: np.random.Generator | None = None,
     groups: np.ndarray | None = None,
+    heights: tuple[float, float] | None = None,
 ) -> HomographyEstimate | HomographyFailure:
     """H_b_from_a from markers (pts_a[i] ↔ pts_b[i], each (N, 2) float64 px).
 
@@ -405,7 +415,8 @@ def fit_homography(
     fixed point (:func:`_local_optimization`). The degeneracy rule is applied to the markers
     and again to the inliers. ``groups`` (N,) int: which target pair (link) dropped each
     marker; the inliers must then come from at least ``cfg.min_marker_groups`` of them (the
-    markers of one or two straight walks can be fitted by a wrong H). Returns a falsy
+    markers of one or two straight walks can be fitted by a wrong H). ``heights``: see
+    :func:`degeneracy_reason`. Returns a falsy
     :class:`HomographyFailure` when no trustworthy H exists.
     """
     pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
@@ -416,7 +427,7 @@ def fit_homography(
         return HomographyFailure("markers contain non-finite points", n)
     # The robust fit judges degeneracy on its inliers only: a few bad markers must not make a
     # well-spread set look collinear (or the reverse).
-    reason = degeneracy_reason(pts_a, pts_b, cfg) if cfg.method == "dlt" else (
+    reason = degeneracy_reason(pts_a, pts_b, cfg, heights) if cfg.method == "dlt" else (
         f"{n} markers, need {cfg.min_markers}" if n < cfg.min_markers else "")
     if reason:
         return HomographyFailure(reason, n)
@@ -426,7 +437,7 @@ def fit_homography(
         if inliers.sum() < 4:
             return HomographyFailure("RANSAC found no consensus", n)
         inliers = _local_optimization(pts_a, pts_b, inliers, cfg.ransac_threshold_px)
-        reason = degeneracy_reason(pts_a[inliers], pts_b[inliers], cfg)
+        reason = degeneracy_reason(pts_a[inliers], pts_b[inliers], cfg, heights)
         if reason:
             return HomographyFailure(f"inliers: {reason}", n)
     H = dlt(pts_a[inliers], pts_b[inliers])

@@ -572,12 +572,14 @@ def _maybe_fit(
     if not due:
         return current, None
     pts_a, pts_b = marker_points(markers)
-    heights = [0.5 * (m.h_a + m.h_b) for m in markers.cells.values()]
-    gate = max(cfg.ransac_threshold_px, cfg.ransac_threshold_heights * float(np.median(heights)))
+    h_ab = np.array([(m.h_a, m.h_b) for m in markers.cells.values()])
+    gate = max(cfg.ransac_threshold_px,
+               cfg.ransac_threshold_heights * float(np.median(h_ab.mean(axis=1))))
     cfg = replace(cfg, ransac_threshold_px=gate)
     rng = np.random.default_rng([cfg.ransac_seed, frame])
     groups = marker_groups(markers)
-    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups), from_frame=frame)
+    heights = (float(np.median(h_ab[:, 0])), float(np.median(h_ab[:, 1])))
+    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups, heights), from_frame=frame)
     return (attempt if attempt or not current else current), attempt
 
 
