@@ -70,7 +70,7 @@ APP_ID = "mvtrack"
 
 _TRAIL_FRAMES = 100  # ground-map trail length per meta-target, frames
 _FOOT_GATE_HEIGHTS = 0.5  # viewer metric: a foot matches truth within half the person's height
-_GROUND_MARGIN = 1.0  # ground map: drawn up to this many reference-outline sizes beyond it
+_GROUND_MARGIN = 2.0  # ground map: drawn up to this many reference-outline sizes beyond it
 _MAP_MIN_SPAN_M, _MAP_MIN_SPAN_PX = 5.0, 100.0  # ground map margin at least this (metres / px)
 
 
@@ -426,25 +426,23 @@ class RerunSink:
                              _outline(result.cameras[ref].targets.size))
         lo, hi = ref_outline.min(axis=0), ref_outline.max(axis=0)
         lo, hi = lo - _GROUND_MARGIN * (hi - lo), hi + _GROUND_MARGIN * (hi - lo)
-        ref_feet = _apply(np.eye(3) if to_out is None else to_out, result.cameras[ref].targets.feet)
-        lo, hi = self._map_box(lo, hi, ref_feet)
+        to_map = {name: H if to_out is None else to_out @ H for name, H in to_ref.items()}
+        feet = {name: _apply(to_map[name], cam.targets.feet)
+                for name, cam in result.cameras.items() if name in to_map}
+        lo, hi = self._map_box(lo, hi, np.concatenate([np.zeros((0, 2)), *feet.values()]))
         pts, ids = [], []
         for name, cam in result.cameras.items():
-            H = to_ref.get(name)
-            if H is None:
+            if name not in to_map:
                 continue
-            if to_out is not None:
-                H = to_out @ H
             size = cam.targets.size
-            runs = [self._g(r) for r in _inside_runs(_apply(H, _outline(size)), lo, hi)]
+            runs = [self._g(r) for r in _inside_runs(_apply(to_map[name], _outline(size)), lo, hi)]
             width = 0.5 if to_out is None else 0.03
             labels = [name] + [""] * (len(runs) - 1) if runs else []
             self.log_changed(paths.ground_fov(name), strips_key(runs, labels),
                              partial(rr.LineStrips2D, runs, radii=width, labels=labels))
-            feet = _apply(H, cam.targets.feet)
-            if len(feet) == len(cam.targets):
-                near = np.all((feet >= lo) & (feet <= hi), axis=1)
-                pts.append(feet[near])
+            if len(feet[name]) == len(cam.targets):
+                near = np.all((feet[name] >= lo) & (feet[name] <= hi), axis=1)
+                pts.append(feet[name][near])
                 ids.append(result.metas[name][near])
         allpts = np.concatenate(pts) if pts else np.zeros((0, 2))
         allids = np.concatenate(ids) if ids else np.zeros(0, np.int64)
@@ -457,8 +455,9 @@ class RerunSink:
 
     def _map_box(self, lo: np.ndarray, hi: np.ndarray,
                  ref_feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The map's extent: where the reference camera has seen feet so far, with a margin of
-        that extent, inside the outline box [lo, hi]; the outline box until feet are seen.
+        """The map's extent: where the cameras have seen feet so far (``ref_feet``: this
+        frame's, every camera mapped to the map), with a margin of that extent, inside the
+        outline box [lo, hi]; the outline box until feet are seen.
 
         A camera whose view reaches the horizon has an outline hundreds of metres deep, which
         would otherwise crowd every person into one corner of the map.
