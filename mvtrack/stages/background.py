@@ -506,7 +506,11 @@ def _prev_overlaps(pixels: _BlobPixels, mvo_prev: np.ndarray | None) -> np.ndarr
         return np.zeros((0, 2), np.int64)
     prev = mvo_prev.ravel()[pixels.index].astype(np.int64)
     hit = prev > 0
-    return np.unique(np.c_[pixels.label[hit].astype(np.int64), prev[hit]], axis=0)
+    if not hit.any():
+        return np.zeros((0, 2), np.int64)
+    span = int(prev.max()) + 1  # a count per (blob, MVO) key: linear, unlike sorting pairs
+    keys = np.flatnonzero(np.bincount(pixels.label[hit].astype(np.int64) * span + prev[hit]))
+    return np.c_[keys // span, keys % span]
 
 
 def _small_remnants(small: np.ndarray, full: np.ndarray, area: np.ndarray,
