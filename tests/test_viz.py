@@ -440,3 +440,29 @@ def test_ground_map_is_bounded_by_where_feet_were_seen() -> None:
     # the box only grows, and feet far outside the outline do not stretch it
     box = RerunSink._map_box(state, lo, hi, np.array([[5.0, 5.0], [900.0, 0.0]]))  # type: ignore[arg-type]
     assert np.allclose(box[0], [-20.0, -10.0]) and np.allclose(box[1], [40.0, 20.0])
+
+
+def test_ground_map_chains_homographies_through_a_shared_camera() -> None:
+    """'three': cam0-cam2 and cam1-cam2 overlap, cam0-cam1 do not; cam1 reaches the map
+    (cam0's ground coordinates) through cam2, and a camera with no valid chain does not."""
+    from types import SimpleNamespace
+
+    from mvtrack.stages.homography import HomographyEstimate, HomographyFailure
+    from mvtrack.viz.pairs import homographies_to_reference
+
+    def pair(H: np.ndarray | None) -> SimpleNamespace:
+        est = HomographyFailure("none") if H is None else HomographyEstimate(
+            H, "dlt", 10, np.ones(10, bool), np.zeros(10), 0.0)
+        return SimpleNamespace(homography=est)
+
+    h02 = np.array([[1.1, 0.1, 30.0], [0.0, 0.9, -5.0], [1e-4, 0.0, 1.0]])  # cam2 from cam0
+    h12 = np.array([[0.8, -0.1, -40.0], [0.05, 1.2, 8.0], [0.0, 2e-4, 1.0]])  # cam2 from cam1
+    pairs = {("cam0", "cam2"): pair(h02), ("cam1", "cam2"): pair(h12),
+             ("cam3", "cam1"): pair(None)}
+    to_ref = homographies_to_reference("cam0", pairs)
+    assert sorted(to_ref) == ["cam0", "cam1", "cam2"]
+    x1 = np.array([100.0, 120.0, 1.0])  # a foot in cam1 ...
+    x2 = h12 @ x1  # ... in cam2 ...
+    x0 = np.linalg.solve(h02, x2)  # ... and in cam0
+    got = to_ref["cam1"] @ x1
+    assert np.allclose(got[:2] / got[2], x0[:2] / x0[2])

@@ -36,20 +36,21 @@ def _valid_H(pr: Any) -> np.ndarray | None:
 
 def homographies_to_reference(ref: str, pairs: Mapping[tuple[str, str], Any]
                               ) -> dict[str, np.ndarray]:
-    """Camera -> (3,3) H_ref_from_cam for ``ref`` itself and every camera with a valid H to it.
-
-    Only direct pairs with ``ref`` are used (chains through a third camera are not composed).
-    """
+    """Camera -> (3,3) H_ref_from_cam for ``ref`` itself and every camera joined to it by a
+    chain of pairs with a valid H (A-C and C-B map B through C when A and B do not overlap);
+    the chain with the fewest pairs is used."""
+    valid = {key: H for key, pr in pairs.items() if (H := _valid_H(pr)) is not None}
     out = {ref: np.eye(3)}
-    for (a, b), pr in pairs.items():
-        H = _valid_H(pr)
-        if H is None:
-            continue
-        if a == ref:
-            out[b] = np.linalg.inv(H)
-        elif b == ref:
-            out[a] = H
-    return out
+    while True:  # one more pair per round: the first chain found is a shortest one
+        found = {}
+        for (a, b), H in valid.items():
+            if a in out and b not in out:
+                found[b] = out[a] @ np.linalg.inv(H)
+            elif b in out and a not in out:
+                found[a] = out[b] @ H
+        if not found:
+            return out
+        out.update(found)
 
 
 def hough_image(accumulator: np.ndarray) -> np.ndarray:
