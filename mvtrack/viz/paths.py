@@ -52,9 +52,11 @@ Per overlapping pair ``a-b`` (names in the clip's overlap order)::
     /pairs/{a}-{b}/costs            TextDocument: the matcher's cost matrix (symmetric transfer
                                     distance in body heights, A targets x B targets)
 
-Ground-plane map (reference camera's pixels, or metres with ``truth/ground.json``), drawn within
-the reference camera's outline plus one outline size on every side (a poor learned homography
-would otherwise throw points hundreds of metres away and zoom the map out)::
+Ground-plane map (reference camera's pixels, or metres with ``truth/ground.json``; a camera
+that does not overlap the reference joins through the shortest chain of pairs with a valid H),
+drawn around the feet seen so far, within the reference camera's outline plus two outline
+sizes on every side (a poor learned homography would otherwise throw points hundreds of metres
+away and zoom the map out)::
 
     /ground/fov/{cam}               LineStrips2D: camera ``cam``'s frame outline on the ground
                                     (the parts inside the map's extent)
