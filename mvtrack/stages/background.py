@@ -142,10 +142,9 @@ class BackgroundState:
     recent_v:    up to ``flow_gap_frames`` previous frames' V planes at flow resolution, (h,w)
                  uint8, oldest first; empty before the first step
     frame_index: number of frames processed by :func:`background_step` so far
-    mvo_age:     (H,W) uint16, read-only, or None before the first step: last frame's MVO
-                 pixels, 1 + the frames in a row their blob was held without moving (1: it
-                 moved); 0 elsewhere
     mvo_prev:    (H,W) int32, read-only, or None before the first step: last frame's MVO labels
+    mvo_ages:    (M,) int64, read-only: per last-frame MVO (label - 1), 1 + the frames in a row
+                 its blob was held (1: it moved and had its full area)
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
@@ -157,8 +156,8 @@ class BackgroundState:
     model: _Model
     recent_v: tuple[np.ndarray, ...]
     frame_index: int
-    mvo_age: np.ndarray | None = None
     mvo_prev: np.ndarray | None = None
+    mvo_ages: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
     sizes: SizeModel = field(default_factory=SizeModel)
 
@@ -487,19 +486,6 @@ def _blob_edges(
     return frame, background
 
 
-def _blob_hold_age(pixels: _BlobPixels, mvo_age: np.ndarray | None, k: int) -> np.ndarray:
-    """Per blob (labels 1..K): the smallest last-frame MVO age among its pixels, int64; 0 when
-    it overlaps no MVO of the last frame."""
-    if mvo_age is None:
-        return np.zeros(k, np.int64)
-    ages = mvo_age.ravel()[pixels.index].astype(np.int64)
-    hit = ages > 0
-    least = np.full(k + 1, np.iinfo(np.int64).max)
-    np.minimum.at(least, pixels.label[hit], ages[hit])
-    least[least == np.iinfo(np.int64).max] = 0
-    return least[1:]
-
-
 def _prev_overlaps(pixels: _BlobPixels, mvo_prev: np.ndarray | None) -> np.ndarray:
     """(P, 2) int64 distinct (blob label, last frame's MVO label) pairs that share a pixel."""
     if mvo_prev is None:
@@ -513,23 +499,28 @@ def _prev_overlaps(pixels: _BlobPixels, mvo_prev: np.ndarray | None) -> np.ndarr
     return np.c_[keys // span, keys % span]
 
 
+def _hold_ages(overlaps: np.ndarray, mvo_ages: np.ndarray, k: int) -> np.ndarray:
+    """(K,) int64: per blob, the smallest age (``BackgroundState.mvo_ages``) of the last-frame
+    MVOs it overlaps (``overlaps`` from :func:`_prev_overlaps`); 0 when it overlaps none."""
+    least = np.full(k, np.iinfo(np.int64).max)
+    np.minimum.at(least, overlaps[:, 0] - 1, mvo_ages[overlaps[:, 1] - 1])
+    least[least == np.iinfo(np.int64).max] = 0
+    return least
+
+
 def _small_remnants(small: np.ndarray, full: np.ndarray, area: np.ndarray,
                     overlaps: np.ndarray) -> np.ndarray:
-    """(K,) bool: the ``small`` blobs that are all that is left of a last-frame MVO: no
-    ``full`` MVO of this frame overlaps it, and no larger small blob does."""
-    if not len(overlaps):
-        return np.zeros(len(small), bool)
+    """(K,) bool: the ``small`` blobs that are all that is left of the last-frame MVOs they
+    overlap: no ``full`` MVO of this frame overlaps any of those, and no larger small blob."""
     blob, prev = overlaps[:, 0] - 1, overlaps[:, 1]
-    taken = np.zeros(int(prev.max()) + 1, bool)
+    taken = np.zeros(int(prev.max(initial=0)) + 1, bool)
     taken[prev[full[blob]]] = True
     largest = np.zeros(len(taken), np.int64)  # per last-frame MVO, its largest small blob's area
     np.maximum.at(largest, prev[small[blob]], area[blob[small[blob]]])
-    ok = small[blob] & ~taken[prev] & (area[blob] >= largest[prev])
-    bad = np.zeros(len(small), bool)
-    np.logical_or.at(bad, blob[~ok], True)
-    out = np.zeros(len(small), bool)
-    out[blob[ok]] = True
-    return out & ~bad
+    overlapping, beaten = np.zeros(len(small), bool), np.zeros(len(small), bool)
+    overlapping[blob] = True
+    beaten[blob[taken[prev] | (area[blob] < largest[prev])]] = True
+    return small & overlapping & ~beaten
 
 
 def _flow(prev: np.ndarray, cur: np.ndarray, factor: int) -> np.ndarray:
@@ -552,8 +543,8 @@ class _BlobEvidence:
     changed_frac: np.ndarray
     edge_frame: np.ndarray
     edge_background: np.ndarray
-    hold_age: np.ndarray
     prev_overlaps: np.ndarray
+    hold_age: np.ndarray
 
 
 def min_area_at(shape: tuple[int, ...], cfg: BackgroundConfig) -> float:
@@ -970,21 +961,19 @@ def background_step(
     pixels = _blob_pixels(index, blob_labels)
     max8 = np.zeros(k + 1, np.uint8)
     np.maximum.at(max8, pixels.label, dist8.ravel()[pixels.index])
+    overlaps = _prev_overlaps(pixels, state.mvo_prev)
     evidence = _BlobEvidence(
         max8[1:],
         *_blob_motion(pixels, stats[1:, cv2.CC_STAT_AREA], frame.shape[1], motion),
         *_blob_edges(candidate, blob_labels, (planes[2], state.model.v), k, cfg),
-        _blob_hold_age(pixels, state.mvo_age, k),
-        _prev_overlaps(pixels, state.mvo_prev),
+        overlaps,
+        _hold_ages(overlaps, state.mvo_ages, k),
     )
     min_area = min_area_at(candidate.shape, cfg)
     thresholds = _area_thresholds(stats, state.sizes, min_area, cfg)
     blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
-    mvo_age = np.zeros(candidate.shape, np.uint16)
-    age_of_mvo = np.minimum(age[blobs.is_mvo], 65535)  # in MVO label order
-    mvo_age.ravel()[mvo_index] = age_of_mvo[mvo_labels.ravel()[mvo_index] - 1]
     if _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, cfg):
         mvo = mvo_labels > 0
         shadow = shadow & ~mvo
@@ -1010,8 +999,8 @@ def background_step(
         model=model,
         recent_v=(*state.recent_v, flow_gray)[-cfg.flow_gap_frames :],
         frame_index=state.frame_index + 1,
-        mvo_age=_readonly(mvo_age),
         mvo_prev=_readonly(mvo_labels),
+        mvo_ages=_readonly(age[blobs.is_mvo]),  # in MVO label order
         shared=shared,
         sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
     )

@@ -454,15 +454,15 @@ class RerunSink:
         self._ground_truth(result.index)
 
     def _map_box(self, lo: np.ndarray, hi: np.ndarray,
-                 ref_feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """The map's extent: where the cameras have seen feet so far (``ref_feet``: this
-        frame's, every camera mapped to the map), with a margin of that extent, inside the
-        outline box [lo, hi]; the outline box until feet are seen.
+                 feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The map's extent: where the cameras have seen feet so far (``feet``: this frame's,
+        every camera's, in map coordinates), with a margin of that extent, inside the outline
+        box [lo, hi]; the outline box until feet are seen.
 
         A camera whose view reaches the horizon has an outline hundreds of metres deep, which
         would otherwise crowd every person into one corner of the map.
         """
-        inside = ref_feet[np.all((ref_feet >= lo) & (ref_feet <= hi), axis=1)]
+        inside = feet[np.all((feet >= lo) & (feet <= hi), axis=1)]
         if len(inside):
             parts = [inside.min(axis=0), inside.max(axis=0)]
             if self._seen_box is not None:
