@@ -191,7 +191,8 @@ def info(clip: Annotated[Path, typer.Argument(help="Clip directory.")]) -> None:
 
 
 FramesOpt = Annotated[
-    str | None, typer.Option("--frames", help="Clip frame range START:STOP, e.g. 100:400.")
+    str | None,
+    typer.Option("--frames", help="Clip frames START:STOP (e.g. 100:400), or N: the first N."),
 ]
 CamerasOpt = Annotated[
     str | None, typer.Option("--cameras", help="Comma-separated cameras to use (default: all).")

@@ -261,10 +261,10 @@ def test_bad_range_for_frames(clip_builder):
         ("100:400", range(100, 400)),
         ("100:", range(100, 795)),
         (":50", range(0, 50)),
-        ("7", range(7, 8)),
+        ("7", range(0, 7)),  # a count, like generate's --frames
         (" 3 : 9 ", range(3, 9)),
         (":", range(0, 795)),
-        ("794", range(794, 795)),
+        ("795", range(0, 795)),
     ],
 )
 def test_parse_frame_range(text, expected):
@@ -275,7 +275,8 @@ def test_parse_frame_range(text, expected):
     ("text", "message"),
     [
         ("100:900", "the clip has 795 frames"),
-        ("795", "the clip has 795 frames"),
+        ("796", "the clip has 795 frames"),
+        ("0", "empty range"),
         ("400:100", "empty range"),
         ("5:5", "empty range"),
         ("-3:", "expected START:END"),

@@ -385,6 +385,16 @@ def test_cli_saves_without_viewer(scene: Path, tmp_path: Path) -> None:
     assert ents[paths.camera_layer("cam1", "image")]["frames"] == set(range(25))
 
 
+def test_cli_frames_count_and_a_frame_without_blobs(scene: Path, tmp_path: Path) -> None:
+    """``--frames N`` is the first N frames; a frame with no blob logs without a warning (the
+    suite turns warnings into errors): trained on frame 0 alone, frame 0 has no foreground."""
+    rrd = tmp_path / "first.rrd"
+    res = CliRunner().invoke(app, [str(scene), "--save", str(rrd), "--no-viewer",
+                                   "--frames", "4", "--set", "background.train_frames=1"])
+    assert res.exit_code == 0, res.output
+    assert read_entities(rrd)[paths.camera_layer("cam0", "image")]["frames"] == set(range(4))
+
+
 @pytest.mark.parametrize(("args", "message"), [
     (["--no-viewer"], "--no-viewer needs --save"),
     (["--no-viewer", "--save", "x.rrd", "--layout", "nope"], "unknown layout"),

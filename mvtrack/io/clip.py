@@ -417,7 +417,8 @@ _RANGE = re.compile(r"\s*(?:(?P<one>\d+)|(?P<start>\d*)\s*:\s*(?P<end>\d*))\s*")
 
 
 def parse_frame_range(text: str, frame_count: int) -> range:
-    """Parse ``--frames``: "100:400" (end exclusive, like Python), "100:", ":50" or "7".
+    """Parse ``--frames``: "100:400" (end exclusive, like Python), "100:", ":50", or "50", the
+    first 50 frames (a count, as ``--frames`` is for ``generate``, ``sweep`` and ``bench``).
 
     Args:
         text: the range text; indices are clip frame indices (after offsets).
@@ -432,11 +433,11 @@ def parse_frame_range(text: str, frame_count: int) -> range:
     m = _RANGE.fullmatch(text)
     if m is None:
         raise ClipError(
-            f"--frames {text!r}: expected START:END (END exclusive), START:, :END or FRAME, "
-            "with non-negative integers"
+            f"--frames {text!r}: expected START:END (END exclusive), START:, :END or COUNT "
+            "(the first COUNT frames), with non-negative integers"
         )
     if m["one"] is not None:
-        start, end = int(m["one"]), int(m["one"]) + 1
+        start, end = 0, int(m["one"])
     else:
         start = int(m["start"]) if m["start"] else 0
         end = int(m["end"]) if m["end"] else frame_count

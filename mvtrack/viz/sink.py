@@ -346,6 +346,9 @@ class RerunSink:
         blobs = cam.background.blobs
         boxes = blobs.box_xywh.copy()
         boxes[:, :2] += 0.5
+        if not len(boxes):  # Rerun warns on empty AnyValues; no box, nothing to hover
+            self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo))
+            return
         self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo),
                      rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
                                   area_threshold_px=blobs.area_threshold_px.astype(np.float64),
