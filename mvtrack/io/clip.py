@@ -413,7 +413,7 @@ def open_clip(path: Path | str, cameras: Sequence[str] | None = None) -> Clip:
     return Clip(spec, files, detections)
 
 
-_RANGE = re.compile(r"\s*(?:(?P<one>\d+)|(?P<start>\d*)\s*:\s*(?P<end>\d*))\s*")
+_RANGE = re.compile(r"\s*(?:(?P<count>\d+)|(?P<start>\d*)\s*:\s*(?P<end>\d*))\s*")
 
 
 def parse_frame_range(text: str, frame_count: int) -> range:
@@ -436,8 +436,8 @@ def parse_frame_range(text: str, frame_count: int) -> range:
             f"--frames {text!r}: expected START:END (END exclusive), START:, :END or COUNT "
             "(the first COUNT frames), with non-negative integers"
         )
-    if m["one"] is not None:
-        start, end = 0, int(m["one"])
+    if m["count"] is not None:
+        start, end = 0, int(m["count"])
     else:
         start = int(m["start"]) if m["start"] else 0
         end = int(m["end"]) if m["end"] else frame_count
