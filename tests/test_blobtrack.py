@@ -427,7 +427,9 @@ def test_group_cuts_off() -> None:
 )
 def test_group_cuts_fall_between_the_heads(gap: int, h: int, dy: int) -> None:
     """Two people side by side, heads h/6 high, one up to 2 px lower: one cut between them."""
-    w = int(np.ceil(0.27 * h))  # people a little wider than group_person_width_frac
+    # people a little wider than group_person_width_frac of the blob height h + dy, with a
+    # pixel to spare for the rounding of the cut (h 51, dy 2, w 14: a 13 px part, under 13.25)
+    w = int(np.ceil(0.27 * (h + dy)))
     mask = np.zeros((h + dy, 2 * w + gap), bool)
     person(mask, 0, 0, w, h)
     person(mask, w + gap, dy, w, h)
