@@ -50,7 +50,7 @@ def run_frontend(frames: Sequence[np.ndarray], modality: str, params: Params,
     for frame in frames:
         bg, res = background_step(bg, frame, params.background)
         if full:
-            tracker, tracks = track_masks(tracker, res.mvo_labels, frame, params.tracker)
+            tracker, tracks = track_masks(tracker, res.mvo_labels, frame, params.tracker, bg.sizes)
             targets += len(target_feet_records(tracks, params.feet))
         else:
             targets += len(res.blobs)

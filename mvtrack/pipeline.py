@@ -258,8 +258,9 @@ class Pipeline:
             if image is not None and bg_state is not None:
                 bg_state, bg = background_step(bg_state, image, p.background)
         with timer("tracker"):
-            if bg is not None:
-                tracker, tracks = track_masks(state.tracker, bg.mvo_labels, image, p.tracker)
+            if bg is not None and bg_state is not None:
+                tracker, tracks = track_masks(state.tracker, bg.mvo_labels, image, p.tracker,
+                                              bg_state.sizes)
             else:
                 d = dets if dets is not None else Detections.empty()
                 tracker, tracks = track_boxes(state.tracker, d.boxes_xywh, d.tracks, p.tracker,

@@ -11,6 +11,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from mvtrack.params import TrackerConfig
+from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import (
     TrackerState,
     group_cuts,
@@ -475,3 +476,49 @@ def test_a_group_cut_by_the_frame_edge_is_not_divided() -> None:
     _, res = run([frame_with(pair, 120, 0), frame_with(pair, 0, 55)])
     assert [r.labels.tolist() for r in res] == [[1], [2]]
     assert all(r.groups == () for r in res)
+
+
+# ------------------------------------------------------- one behind the other: not fragments
+
+PEOPLE_60 = SizeModel(line=(0.0, 60.0))  # a size line: people are 60 px tall on every row
+
+
+def stacked_pair(back_dy: int) -> np.ndarray:
+    """A person 60 px tall and 30 wide with feet at row 149, and one behind, ``back_dy`` px
+    higher and 6 px to the right (label image: touching people are one blob)."""
+    mask = np.zeros((160, W), bool)
+    person(mask, 60, 90, 30)
+    person(mask, 66, 90 - back_dy, 30)
+    labels, _ = ndimage.label(mask)
+    return labels.astype(np.int32)
+
+
+def track_with(frames: list[np.ndarray], size_model: SizeModel | None) -> list:
+    state, results = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, CFG, size_model)
+        results.append(r)
+    return results
+
+
+def test_people_one_behind_the_other_are_not_reunited_as_fragments() -> None:
+    """Two wide people one behind the other pass the stacked-fragments test (shared columns, a
+    small gap, an upright union); together they are two people tall, so when their blobs join
+    they are a merge, not one person's head and body."""
+    apart, joined = stacked_pair(64), stacked_pair(60)  # a 4 px gap, then touching
+    assert apart.max() == 2 and joined.max() == 1
+    frames = [apart, apart, joined, joined]
+    res = track_with(frames, PEOPLE_60)
+    assert res[0].labels.tolist() == [1, 2]
+    assert res[2].merges == ((1, (1, 2)),) and res[2].reunions == ()
+    assert res[3].labels.tolist() == [1, 2]
+    # without a size line they look like head and body: reunited
+    res = track_with(frames, None)
+    assert res[2].reunions == ((2, (1,)),) or res[2].reunions == ((1, (2,)),)
+    # a person in two pieces is a person tall: the height test leaves the reunion alone
+    head_body = [
+        blobs((20, 10, 29, 19), (18, 24, 31, 70)),
+        blobs((22, 10, 31, 19), (20, 24, 33, 70)),
+        blobs((24, 10, 33, 19), (22, 20, 35, 70)),
+    ]
+    assert track_with(head_body, PEOPLE_60)[2].reunions == ((2, (1,)),)

@@ -61,7 +61,7 @@ from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import box_intersections, stacked_boxes
+from mvtrack.stages.background import SizeModel, box_intersections, stacked_boxes
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -444,10 +444,16 @@ class _Inputs:
 
     frame: np.ndarray | None  # (H, W) or (H, W, C) image, None without colour
     cfg: TrackerConfig
+    size_model: SizeModel | None = None  # the camera's person height per feet row, if learned
 
     def codes_in(self, window: tuple[slice, slice]) -> np.ndarray | None:
         """(h, w) int64 colour codes of the frame in ``window``, or None without a frame."""
         return None if self.frame is None else _colour_codes(self.frame[window], self.cfg)
+
+    def person_height(self, bottom_y: np.ndarray) -> np.ndarray | None:
+        """Person heights in px the size line predicts at these bottom edges (any shape), or
+        None before the camera has a line (or for detections)."""
+        return None if self.size_model is None else self.size_model.height_at(bottom_y)
 
 
 @dataclass
@@ -471,15 +477,27 @@ class _Frame:
     groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
 
 
-def _stacked(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
-    """(K, K) bool: boxes (K, 4) stacked like the parts of one person (TrackerConfig.fragment_*)."""
-    return stacked_boxes(
+def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
+    """(K, K) bool: boxes (K, 4) stacked like the parts of one person (TrackerConfig.fragment_*):
+    :func:`stacked_boxes`, and no taller together than ``fragment_max_height_frac`` times the
+    person height the size line predicts at their union's bottom (when there is a line)."""
+    cfg = ctx.cfg
+    stacked = stacked_boxes(
         box_xywh,
         cfg.fragment_x_overlap_frac,
         cfg.fragment_y_gap_frac,
         cfg.fragment_y_overlap_frac,
         cfg.fragment_max_aspect,
     )
+    top, bottom = box_xywh[:, 1], box_xywh[:, 1] + box_xywh[:, 3]
+    union_bottom = np.maximum(bottom[:, None], bottom)
+    person = ctx.person_height(union_bottom) if cfg.fragment_max_height_frac > 0 else None
+    if person is None:
+        return stacked
+    union_h = union_bottom - np.minimum(top[:, None], top)
+    too_tall = (person > 0) & (union_h > cfg.fragment_max_height_frac * person)
+    np.fill_diagonal(too_tall, False)
+    return stacked & ~too_tall
 
 
 def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
@@ -513,17 +531,17 @@ def _template_box(t: TargetTrack) -> np.ndarray:
 
 
 def _reunite(
-    heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame, cfg: TrackerConfig
+    heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame, ctx: _Inputs
 ) -> tuple[int, ...]:
     """The heirs of a merged blob that are distinct people: of every group of fragment targets
     (stacked, :func:`_stacked`, or a leg inside its person's box, :func:`_legs_of`, on their
     previous boxes) only the largest stays; the others are recorded as absorbed in
     ``work.reunions`` and, receiving no pixel, retire."""
-    if not cfg.reunite_fragments:
+    if not ctx.cfg.reunite_fragments:
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
-    legs = _legs_of(boxes, cfg)
-    linked = _stacked(boxes, cfg) | legs | legs.T
+    legs = _legs_of(boxes, ctx.cfg)
+    linked = _stacked(boxes, ctx) | legs | legs.T
     n_groups, group = connected_components(csr_matrix(linked), directed=False)
     if n_groups == len(heirs):
         return heirs
@@ -551,18 +569,18 @@ def _parent_fragment(
     plan: _Plan,
     slices: dict[int, tuple[slice, slice]],
     blob_ids: np.ndarray,
-    cfg: TrackerConfig,
+    ctx: _Inputs,
 ) -> int:
     """For a blob with no inheritor: the index of its split parent's continuation blob when the
     two are stacked like parts of one person (the blob is a fragment of the parent), else -1."""
     parent = plan.split_parent[b]
-    if parent < 0 or not cfg.reunite_fragments:
+    if parent < 0 or not ctx.cfg.reunite_fragments:
         return -1
     for c, heirs in enumerate(plan.inheritors):
         if heirs == (parent,):
             window, other = slices[int(blob_ids[b])], slices[int(blob_ids[c])]
             pair = np.stack([_blob_box(window), _blob_box(other)])
-            return c if bool(_stacked(pair, cfg)[0, 1]) else -1
+            return c if bool(_stacked(pair, ctx)[0, 1]) else -1
     return -1
 
 
@@ -746,12 +764,18 @@ def _check_mask_inputs(
 
 
 def track_masks(
-    state: TrackerState, mvo_labels: np.ndarray, frame: np.ndarray | None, cfg: TrackerConfig
+    state: TrackerState,
+    mvo_labels: np.ndarray,
+    frame: np.ndarray | None,
+    cfg: TrackerConfig,
+    size_model: SizeModel | None = None,
 ) -> tuple[TrackerState, TrackResult]:
     """One frame of mask tracking.
 
     mvo_labels: (H, W) integer, 0 none, 1..K MVO blobs (ids need not be contiguous)
     frame:      (H, W, C) or (H, W) uint8 (or float in [0, 1]) image, or None (no colour cue)
+    size_model: the camera's person heights per feet row (background subtraction learns them),
+                or None: no height test on fragments (:func:`_stacked`)
     Returns the new state and the :class:`TrackResult` (label image, boxes, events, overlap).
     """
     cur = np.asarray(mvo_labels)
@@ -761,20 +785,20 @@ def track_masks(
     rows = np.array([t.label for t in state.targets], np.int64)
     overlap = _mask_overlap(state.label_image, rows, cur, blob_ids, found.index)
     plan = _associate(overlap, overlap >= cfg.min_overlap_px, sizes)
-    ctx = _Inputs(frame, cfg)
+    ctx = _Inputs(frame, cfg, size_model)
 
     work = _Frame(np.zeros(cur.shape, np.int32), rows, overlap, blob_ids, plan, state.next_label)
     for b, blob_id in enumerate(blob_ids):
         window = slices[int(blob_id)]
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
-            heirs = _reunite(heirs, state.targets, work, cfg)
+            heirs = _reunite(heirs, state.targets, work, ctx)
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
             grown = _crop_window(window, tracks, cur.shape)
             _merge_blob(work, int(blob_id), grown, cur[grown] == blob_id, tracks, ctx)
             continue
-        whole = _parent_fragment(b, plan, slices, blob_ids, cfg) if not heirs else -1
+        whole = _parent_fragment(b, plan, slices, blob_ids, ctx) if not heirs else -1
         crop = cur[window] == blob_id
         cuts = group_cuts(crop, cfg) if whole < 0 and _inside(window, cur.shape) else _NO_CUTS
         if len(cuts):
