@@ -19,7 +19,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
    target that receives no pixel is fully occluded and is retired. Targets that were parts of
    one person (stacked head and body, or a leg inside its person's box) reunite instead: the
-   largest keeps its label (:func:`_reunite`, ``reunite_fragments``).
+   largest keeps its label (:func:`_reunite`, ``reunite_fragments``). Stacked parts taller
+   together than the camera's size line says a person is there are two people, one behind the
+   other, and stay a merge (``fragment_max_height_frac``; needs ``size_model``).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
