@@ -452,11 +452,6 @@ class _Inputs:
         """(h, w) int64 colour codes of the frame in ``window``, or None without a frame."""
         return None if self.frame is None else _colour_codes(self.frame[window], self.cfg)
 
-    def person_height(self, bottom_y: np.ndarray) -> np.ndarray | None:
-        """Person heights in px the size line predicts at these bottom edges (any shape), or
-        None before the camera has a line (or for detections)."""
-        return None if self.size_model is None else self.size_model.height_at(bottom_y)
-
 
 @dataclass
 class _Frame:
@@ -493,7 +488,8 @@ def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     )
     top, bottom = box_xywh[:, 1], box_xywh[:, 1] + box_xywh[:, 3]
     union_bottom = np.maximum(bottom[:, None], bottom)
-    person = ctx.person_height(union_bottom) if cfg.fragment_max_height_frac > 0 else None
+    sizes = ctx.size_model if cfg.fragment_max_height_frac > 0 else None
+    person = None if sizes is None else sizes.height_at(union_bottom)
     if person is None:
         return stacked
     union_h = union_bottom - np.minimum(top[:, None], top)

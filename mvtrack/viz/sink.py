@@ -346,15 +346,13 @@ class RerunSink:
         blobs = cam.background.blobs
         boxes = blobs.box_xywh.copy()
         boxes[:, :2] += 0.5
-        if not len(boxes):  # Rerun warns on empty AnyValues; no box, nothing to hover
-            self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo))
-            return
-        self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo),
-                     rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
-                                  area_threshold_px=blobs.area_threshold_px.astype(np.float64),
-                                  max_distance=blobs.max_distance.astype(np.float64),
-                                  mean_flow_px=blobs.mean_flow_px.astype(np.float64),
-                                  is_mvo=blobs.is_mvo.astype(bool)))
+        hover = [rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
+                              area_threshold_px=blobs.area_threshold_px.astype(np.float64),
+                              max_distance=blobs.max_distance.astype(np.float64),
+                              mean_flow_px=blobs.mean_flow_px.astype(np.float64),
+                              is_mvo=blobs.is_mvo.astype(bool))] if len(boxes) else []
+        # (Rerun warns on an empty AnyValues: a frame without blobs has nothing to hover)
+        self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo), *hover)
 
     def _tracker_events(self, name: str, cam: CameraResult) -> None:
         t = cam.tracks
