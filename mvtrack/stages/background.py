@@ -226,7 +226,8 @@ class BackgroundResult:
 
     frame_index:    0-based index of this frame among the steps since training
     background_bgr: (H,W,3) uint8 BGR (gray: (H,W) uint8), read-only: the B used for this frame
-    distance:       float32 in [0, 1], D_B
+    distance_u8:    uint8, D_B x 255 rounded down (as the stage computes and thresholds it;
+                    :attr:`distance` is the float32 view in [0, 1])
     shadow:         bool, the shadow map: pixels passing the shadow test, but legs grown back
     candidate:      bool, D_B > T_L after the opening, shadows removed
     blob_labels:    int32, 0 none, 1..K the candidate blobs (rows of ``blobs``)
@@ -241,7 +242,7 @@ class BackgroundResult:
 
     frame_index: int
     background_bgr: np.ndarray
-    distance: np.ndarray
+    distance_u8: np.ndarray
     shadow: np.ndarray
     candidate: np.ndarray
     blob_labels: np.ndarray
@@ -255,6 +256,12 @@ class BackgroundResult:
     def mvo_mask(self) -> np.ndarray:
         """(H,W) bool, the MVO pixels."""
         return self.mvo_labels > 0
+
+    @property
+    def distance(self) -> np.ndarray:
+        """(H,W) float32 in [0, 1], D_B (built on each access: the pipeline and the viewer use
+        :attr:`distance_u8`)."""
+        return np.multiply(self.distance_u8, np.float32(1.0 / 255.0), dtype=np.float32)
 
 
 def _readonly(a: np.ndarray) -> np.ndarray:
@@ -983,7 +990,7 @@ def background_step(
     result = BackgroundResult(
         frame_index=state.frame_index,
         background_bgr=state.model.bgr,
-        distance=np.multiply(dist8, np.float32(1.0 / 255.0), dtype=np.float32),
+        distance_u8=dist8,
         shadow=shadow,
         candidate=candidate,
         blob_labels=blob_labels,

@@ -287,10 +287,11 @@ def _push_centroid(track: TargetTrack, xy: np.ndarray, cfg: TrackerConfig) -> np
 def _colour_codes(frame: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     """(h, w) int64 histogram bin of every pixel; frame (h, w) or (h, w, C), uint8 or [0, 1]."""
     f = np.asarray(frame)
-    scale = 256.0 if f.dtype == np.uint8 else 1.0
-    q = np.clip(
-        (f.astype(np.float64) / scale * cfg.colour_bins).astype(np.int64), 0, cfg.colour_bins - 1
-    )
+    if f.dtype == np.uint8:  # floor(f / 256 * bins) in integers: 3x faster than in floats
+        q = (f.astype(np.int64) * cfg.colour_bins) >> 8
+    else:
+        q = np.clip((f.astype(np.float64) * cfg.colour_bins).astype(np.int64), 0,
+                    cfg.colour_bins - 1)
     if q.ndim == 2:
         return q
     codes = np.zeros(q.shape[:2], np.int64)

@@ -311,7 +311,7 @@ class RerunSink:
                 out.append(("background",
                             image_layer(bg.background_bgr, opts.images, draw_order=-20.0)))
             if opts.distance:
-                out.append(("distance", distance_layer(bg.distance, opts.images)))
+                out.append(("distance", distance_layer(bg.distance_u8, opts.images)))
             if opts.masks:
                 out.append(("masks", masks_layer(bg.mvo_mask, bg.ghost_mask, bg.fg_shadow,
                                                  bg.ghost_shadow)))
