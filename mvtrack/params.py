@@ -734,6 +734,21 @@ class ResolveConfig(_Checked):
         25, "a target that took over an earlier target's meta within this gap keeps it", 0,
         100000,
     )
+    # Fragment votes (a person's legs tracked apart from the torso vote for the person's target
+    # in the other camera): only for targets this much shorter than the one that took the
+    # assignment. Without the test, a person walking close beside another (doors seed 0,
+    # persons 11 and 12) joined the other's meta.
+    fragment_max_height_frac: float = param(
+        0.75, "a target left out of the assignment votes as a fragment if at most this "
+        "fraction of the height of the target that took it", 0.0, 10.0,
+    )
+    # A target that changed person (two people crossing at a door or a frame edge merge and the
+    # wrong one keeps the label) votes for one person, then for another. Generated doors seed 1:
+    # cam0 target 4 is person 1 for 89 frames, then person 5 for 100.
+    switch_min_votes: int = param(
+        20, "a target is cut where its votes change person, both runs at least this long",
+        1, 100000,
+    )
 
     def _check(self) -> None:
         if self.labels not in ("whole_run", "online"):

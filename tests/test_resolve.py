@@ -62,8 +62,8 @@ def test_people_seen_together_before_h_share_one_meta_for_life() -> None:
     assert all(len(v) == 1 for v in metas.values())  # one meta per target for its whole life
     assert metas["cam0", 1] == metas["cam1", 1] == {1}  # keeps the meta most rows carried
     assert metas["cam0", 2] == metas["cam1", 2] != metas["cam0", 1]
-    assert {(x.a, x.b) for x in res.links if x.joined} == {(("cam0", 1), ("cam1", 1)),
-                                                           (("cam0", 2), ("cam1", 2))}
+    assert {(x.a, x.b) for x in res.links if x.joined} == {(("cam0", 1, 0), ("cam1", 1, 0)),
+                                                           (("cam0", 2, 0), ("cam1", 2, 0))}
 
 
 def test_fov_baseline_never_uses_the_homography() -> None:
@@ -74,21 +74,78 @@ def test_fov_baseline_never_uses_the_homography() -> None:
     assert not res.links
 
 
-def test_two_people_of_one_camera_are_never_joined() -> None:
-    """cam1's single target covers person A, then person B (an identity swap); cam0 sees both
-    people side by side all along. The swap must not join A and B."""
+def _swap_rows(switch_at: int) -> Rows:
+    """cam0 sees persons A and B side by side for 80 frames; cam1's target 7 covers A, then B
+    from ``switch_at`` on (an identity swap)."""
     rows = _rows([
         ("cam0", 1, 1, range(0, 80), (100.0, 100.0)),
         ("cam0", 2, 2, range(0, 80), (100.0, 200.0)),
-        ("cam1", 7, 3, range(0, 40), (100.0, 100.0)),
+        ("cam1", 7, 3, range(0, switch_at), (100.0, 100.0)),
     ])
-    swapped = _rows([("cam1", 7, 3, range(40, 80), (100.0, 200.0))])
-    rows = Rows(*(np.concatenate([getattr(rows, f), getattr(swapped, f)])
+    swapped = _rows([("cam1", 7, 3, range(switch_at, 80), (100.0, 200.0))])
+    return Rows(*(np.concatenate([getattr(rows, f), getattr(swapped, f)])
                   for f in ("frame", "camera", "target", "meta", "feet", "height")))
+
+
+def test_a_target_that_switched_person_is_cut_and_two_people_never_joined() -> None:
+    """The swap must not join A and B; cam1's target is cut at the switch and each part takes
+    its person's meta."""
+    rows = _swap_rows(40)
     res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
     metas = _meta_of(rows, res.meta)
     assert metas["cam0", 1] != metas["cam0", 2]
-    assert [x.joined for x in res.links] == [True, False]
+    cam1 = rows.camera == "cam1"
+    assert set(res.meta[cam1 & (rows.frame < 40)].tolist()) == metas["cam0", 1]
+    assert set(res.meta[cam1 & (rows.frame >= 40)].tolist()) == metas["cam0", 2]
+    assert [(x.a, x.b, x.source, x.joined) for x in res.links] == [
+        (("cam0", 1, 0), ("cam1", 7, 0), "homography", True),
+        (("cam0", 2, 0), ("cam1", 7, 1), "homography", True),
+        (("cam1", 7, 0), ("cam1", 7, 1), "segment", False),  # would join A and B
+    ]
+
+
+def test_a_swap_is_blamed_on_the_camera_where_the_two_overlapped() -> None:
+    """Persons A and B pass 10 px apart at frame 40. cam1 sees them large (100 px tall: 0.1
+    heights apart, against 0.2 in cam0) and swaps its targets 7 and 8 there; cam0 keeps its
+    targets 1 and 2 on their people. Each of the four targets' votes change partner at frame
+    40; only cam1's targets are cut, and every row of A carries one meta."""
+    cols: list[list] = [[], [], [], [], [], []]
+
+    def add(cam: str, target: int, meta: int, frames: range, person: str) -> None:
+        for f in frames:
+            x, y = (100.0, 100.0 + f) if person == "A" else (110.0, 180.0 - f)
+            feet = (x + (40.0 if cam == "cam1" else 0.0), y)
+            for col, v in zip(cols, (f, cam, target, meta, feet, 50.0 if cam == "cam0" else 100.0),
+                              strict=True):
+                col.append(v)
+
+    add("cam0", 1, 1, range(80), "A")
+    add("cam0", 2, 2, range(80), "B")
+    add("cam1", 7, 3, range(40), "A")
+    add("cam1", 7, 3, range(40, 80), "B")
+    add("cam1", 8, 4, range(40), "B")
+    add("cam1", 8, 4, range(40, 80), "A")
+    rows = Rows(np.array(cols[0], np.int64), np.array(cols[1]), np.array(cols[2], np.int64),
+                np.array(cols[3], np.int64), np.array(cols[4], np.float64),
+                np.array(cols[5], np.float64))
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    person_a = ((rows.camera == "cam0") & (rows.target == 1)) | (
+        (rows.camera == "cam1") & ((rows.target == 7) == (rows.frame < 40)))
+    assert len(set(res.meta[person_a].tolist())) == 1
+    assert len(set(res.meta[~person_a].tolist())) == 1
+    assert res.meta[person_a][0] != res.meta[~person_a][0]
+    cut = {x.a for x in res.links if x.source == "segment"}
+    assert cut == {("cam1", 7, 0), ("cam1", 8, 0)}
+
+
+def test_a_short_run_of_votes_is_no_switch() -> None:
+    """Under ``switch_min_votes`` frames with the other person (people passing close by) do
+    not cut a target: it keeps one meta, its person's."""
+    rows = _swap_rows(80 - CFG.switch_min_votes + 1)
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam1", 7] == metas["cam0", 1]
+    assert not any(x.source == "segment" for x in res.links)
 
 
 def test_fragments_of_one_person_join_but_not_after_a_long_gap() -> None:
@@ -108,6 +165,25 @@ def test_fragments_of_one_person_join_but_not_after_a_long_gap() -> None:
     assert metas["cam0", 4] != metas["cam0", 6]
     near = resolve_labels(rows, [("cam0", "cam1", SHIFT)], replace(CFG, resume_gap_frames=80))
     assert len(set(near.meta[rows.meta == 9].tolist())) == 1
+
+
+def test_legs_tracked_apart_join_their_person_by_fragment_votes() -> None:
+    """cam0 tracks a person's legs apart (target 7, 20 px tall, 25 frames inside the torso
+    target 1's life, feet 5 px away): the assignment always picks the torso, yet the legs vote
+    for the person's cam1 target and join it. A second person, seen only in cam0 beside the
+    first, is within the gate too but as tall: no fragment."""
+    rows = _rows([
+        ("cam0", 1, 1, range(0, 80), (100.0, 100.0)),
+        ("cam0", 7, 8, range(30, 55), (105.0, 100.0)),
+        ("cam1", 2, 2, range(0, 80), (100.0, 100.0)),
+        ("cam0", 9, 9, range(10, 70), (100.0, 130.0)),
+    ])
+    legs = (rows.camera == "cam0") & (rows.target == 7)
+    rows = replace(rows, height=np.where(legs, 20.0, rows.height))
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 7] == metas["cam0", 1] == metas["cam1", 2]
+    assert metas["cam0", 9] != metas["cam0", 1]
 
 
 def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:

@@ -9,10 +9,20 @@ the results give each target one meta for its whole life:
 - **votes**: in each frame, for each pair with a final H, a gated minimum-cost assignment on
   the symmetric transfer distance (body heights, as the matcher) of the targets present; a vote
   for (A target, B target) per frame they are assigned;
+- **fragment votes**: a target the assignment left out votes for the nearest target of the
+  other camera within the gate if it is clearly shorter than the target of its own camera
+  that took that one (a person's legs tracked apart from the torso);
 - a **cross-camera link** needs ``min_votes`` votes and ``min_vote_share`` of the frames both
   targets were present;
 - pairs without a final H (and every pair with the FOV-only matcher, which must not use H) keep
   the run's own links: votes = frames the two targets carried one meta together;
+- **identity switches**: a target whose votes go to one target of the other camera for at
+  least ``switch_min_votes`` frames, then to another for as long, while those two are present
+  together for more than ``max_shared_frames`` frames (two people), changed person in between
+  (two people crossing at a door or a frame edge): it is cut there into segments, which vote
+  apart; consecutive segments are rejoined (after the votes) unless that joins two people.
+  Two people swapped by one camera make mirror switches in both cameras; only the targets of
+  the camera where the two came nearer each other (in body heights) are cut;
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
@@ -33,8 +43,8 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass
-from itertools import combinations
-from typing import Protocol
+from itertools import combinations, pairwise
+from typing import Any, Protocol
 
 import numpy as np
 
@@ -43,8 +53,11 @@ from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "resolve_labels"]
 
-Node = tuple[str, int]
-"""(camera, camera-local target label)."""
+Track = tuple[str, int]
+"""(camera, camera-local target label): a target's whole life."""
+
+Node = tuple[str, int, int]
+"""(camera, camera-local target label, segment): segment 0 unless the target switched person."""
 
 
 class Rows(Protocol):
@@ -68,7 +81,8 @@ class Rows(Protocol):
 
 @dataclass(frozen=True)
 class ResolvedLink:
-    """One link considered: ``source`` "homography" (votes) or "online" (the run's own)."""
+    """One link considered: ``source`` "homography" (votes), "online" (the run's own) or
+    "segment" (a target's segments before and after an identity switch)."""
 
     a: Node
     b: Node
@@ -97,10 +111,6 @@ class Resolution:
         return out
 
 
-def _nodes(rows: Rows) -> list[Node]:
-    return list(zip(rows.camera.tolist(), rows.target.tolist(), strict=True))
-
-
 def _frames(rows: Rows) -> list[np.ndarray]:
     """Row indices of each frame, frames in order."""
     order = np.argsort(rows.frame, kind="stable")
@@ -108,27 +118,167 @@ def _frames(rows: Rows) -> list[np.ndarray]:
     return np.split(order, np.flatnonzero(frames[1:] != frames[:-1]) + 1) if len(order) else []
 
 
-def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
-                      names: tuple[str, str], H: np.ndarray, cfg: ResolveConfig
-                      ) -> list[tuple[int, Node, Node]]:
-    """(votes, A target, B target) of the pairs that pass ``min_votes`` and
-    ``min_vote_share``: per frame, the gated assignment of the pair's targets on the
-    transfer distance, counted against the frames both targets were present."""
-    votes: Counter[tuple[Node, Node]] = Counter()
-    together: Counter[tuple[Node, Node]] = Counter()
+def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H: np.ndarray,
+                 cfg: ResolveConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+    """Votes of one pair as (A row, B row): every frame's gated assignment of the pair's
+    targets on the transfer distance (body heights, as the matcher), and the fragment votes: a
+    target left out of the assignment votes for the nearest other-camera target within the
+    gate (the legs of a person whose torso took the assignment)."""
+    pairs, fragments = [], []
     for chunk in frames:
         ia = chunk[rows.camera[chunk] == names[0]]
         ib = chunk[rows.camera[chunk] == names[1]]
         if not len(ia) or not len(ib):
             continue
-        together.update((nodes[i], nodes[k]) for i in ia.tolist() for k in ib.tolist())
         cost, _, _ = symmetric_transfer(H, rows.feet[ia], rows.height[ia], rows.feet[ib],
                                         rows.height[ib])
-        for i, k, _ in gated_assignment(cost, range(len(ia)), range(len(ib)),
-                                        cfg.vote_gate_heights):
-            votes[(nodes[ia[i]], nodes[ib[k]])] += 1
+        got = gated_assignment(cost, range(len(ia)), range(len(ib)), cfg.vote_gate_heights)
+        pairs += [(int(ia[i]), int(ib[k])) for i, k, _ in got]
+        a_of = {k: i for i, k, _ in got}
+        b_of = {i: k for i, k, _ in got}
+        for i in set(range(len(ia))) - set(b_of):
+            k = int(np.argmin(cost[i]))
+            if _fragment_of(rows, ia[i], ia[a_of[k]] if k in a_of else None, cost[i, k], cfg):
+                fragments.append((int(ia[i]), int(ib[k])))
+        for k in set(range(len(ib))) - set(a_of):
+            i = int(np.argmin(cost[:, k]))
+            if _fragment_of(rows, ib[k], ib[b_of[i]] if i in b_of else None, cost[i, k], cfg):
+                fragments.append((int(ia[i]), int(ib[k])))
+    return pairs, fragments
+
+
+def _fragment_of(rows: Rows, part: int, whole: int | None, cost: float,
+                 cfg: ResolveConfig) -> bool:
+    """Whether row ``part``, left out of a frame's assignment at ``cost`` from the nearest
+    other-camera target, looks like a piece of row ``whole`` of its own camera (the target
+    that other one was assigned to): within the vote gate and at most
+    ``fragment_max_height_frac`` of its height. A person walking beside another is as tall."""
+    return (whole is not None and cost < cfg.vote_gate_heights
+            and rows.height[part] <= cfg.fragment_max_height_frac * rows.height[whole])
+
+
+class _Tracks:
+    """Each target's rows by frame."""
+
+    def __init__(self, rows: Rows) -> None:
+        self.rows = rows
+        self.at: dict[Track, dict[int, int]] = {}
+        for i, (c, t, f) in enumerate(zip(rows.camera.tolist(), rows.target.tolist(),
+                                          rows.frame.tolist(), strict=True)):
+            self.at.setdefault((c, t), {})[f] = i
+
+    def together(self, p: Track, q: Track) -> int:
+        """Frames both targets were present."""
+        return len(self.at[p].keys() & self.at[q].keys())
+
+    def nearest(self, p: Track, q: Track, frames: range) -> float:
+        """The least distance of two targets of one camera over ``frames`` (both present), in
+        body heights (feet distance over their mean height); inf if never both present."""
+        at_p, at_q, r = self.at[p], self.at[q], self.rows
+        best = np.inf
+        for f in frames:
+            i, k = at_p.get(f), at_q.get(f)
+            if i is not None and k is not None:
+                d = float(np.linalg.norm(r.feet[i] - r.feet[k]))
+                best = min(best, d / max(0.5 * (r.height[i] + r.height[k]), 1.0))
+        return best
+
+
+@dataclass(frozen=True)
+class _Switch:
+    """A target's votes went from partner ``before`` to partner ``after`` (another camera's
+    targets) around frame ``cut``; ``frames``: the runs' ends and the gap between."""
+
+    track: Track
+    before: Track
+    after: Track
+    cut: int
+    frames: range
+
+
+def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
+              cfg: ResolveConfig) -> list[_Switch]:
+    """Where a target's votes change person. ``partners``: its (frame, voted partner) in one
+    other camera, by frame. Runs of one partner shorter than ``switch_min_votes`` are ignored;
+    two long runs in a row whose partners are two people (present together longer than
+    ``max_shared_frames``) make a switch, cut half-way between the runs."""
+    runs: list[list[Any]] = []  # [partner, first frame, last frame, votes]
+    for f, partner in partners:
+        if runs and runs[-1][0] == partner:
+            runs[-1][2], runs[-1][3] = f, runs[-1][3] + 1
+        else:
+            runs.append([partner, f, f, 1])
+    long: list[list[Any]] = []
+    for run in (r for r in runs if r[3] >= cfg.switch_min_votes):
+        if long and long[-1][0] == run[0]:
+            long[-1][2], long[-1][3] = run[2], long[-1][3] + run[3]
+        else:
+            long.append(run)
+    margin = cfg.switch_min_votes
+    return [_Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2,
+                    range(p[2] - margin, q[1] + margin + 1))
+            for p, q in pairwise(long)
+            if tracks.together(p[0], q[0]) > cfg.max_shared_frames]
+
+
+def _who_switched(sw: _Switch, by_track: dict[Track, list[_Switch]], tracks: _Tracks) -> bool:
+    """Whether ``sw``'s own target changed person. Two people swapped in one camera make
+    switches in both: each of the other camera's two targets sees this one go from one to the
+    other. The camera where the two were nearer each other (in body heights) then is the one
+    that swapped them; without such a mirror switch the target's own camera did."""
+    for other in (sw.before, sw.after):
+        for mirror in by_track.get(other, ()):
+            if sw.track in (mirror.before, mirror.after) and set(sw.frames) & set(mirror.frames):
+                rival = mirror.after if mirror.before == sw.track else mirror.before
+                mine = tracks.nearest(sw.track, rival, sw.frames)
+                theirs = tracks.nearest(sw.before, sw.after, sw.frames)
+                return mine < theirs
+    return True
+
+
+def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig) -> np.ndarray:
+    """(N,) int64: each row's segment of its target, cut where it changed person
+    (:func:`_switches`, :func:`_who_switched`); 0 without cuts."""
+    partners: dict[tuple[Track, str], list[tuple[int, Track]]] = {}
+    cams, targets, frame = rows.camera.tolist(), rows.target.tolist(), rows.frame.tolist()
+    for i, k in votes:
+        a, b = (cams[i], targets[i]), (cams[k], targets[k])
+        partners.setdefault((a, b[0]), []).append((frame[i], b))
+        partners.setdefault((b, a[0]), []).append((frame[k], a))
+    tracks = _Tracks(rows)
+    by_track: dict[Track, list[_Switch]] = {}
+    for (track, _), seq in partners.items():
+        seq.sort()
+        by_track.setdefault(track, []).extend(_switches(track, seq, tracks, cfg))
+    segment = np.zeros(len(frame), np.int64)
+    for track, switches in by_track.items():
+        for cut in {sw.cut for sw in switches if _who_switched(sw, by_track, tracks)}:
+            for f, i in tracks.at[track].items():
+                segment[i] += f >= cut
+    return segment
+
+
+def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
+                      names: tuple[str, str], assigned: list[tuple[int, int]],
+                      cfg: ResolveConfig) -> list[tuple[int, Node, Node]]:
+    """(votes, A target, B target) of the pairs that pass ``min_votes`` and
+    ``min_vote_share``: a vote per frame a pair is assigned, counted against the frames both
+    were present."""
+    votes = Counter((nodes[i], nodes[k]) for i, k in assigned)
+    together: Counter[tuple[Node, Node]] = Counter()
+    for chunk in frames:
+        ia = chunk[rows.camera[chunk] == names[0]]
+        ib = chunk[rows.camera[chunk] == names[1]]
+        together.update((nodes[i], nodes[k]) for i in ia.tolist() for k in ib.tolist())
     return [(v, x, y) for (x, y), v in votes.items()
             if v >= cfg.min_votes and v >= cfg.min_vote_share * together[(x, y)]]
+
+
+def _segment_links(nodes: list[Node]) -> list[tuple[int, Node, Node]]:
+    """(rows of the shorter, segment, next segment) of every target cut into segments."""
+    count = Counter(nodes)
+    return [(min(count[n], count[(n[0], n[1], n[2] + 1)]), n, (n[0], n[1], n[2] + 1))
+            for n in sorted(count) if (n[0], n[1], n[2] + 1) in count]
 
 
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
@@ -158,7 +308,8 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
             earlier, taken_at = (x, sy[0]) if sx[1] < sy[0] else (y, sx[0])
             # A take-over, not a meta handed from one live target to another: the earlier
             # target is gone when the later one takes the meta.
-            if x[0] == y[0] and 0 < gap <= cfg.resume_gap_frames and last[earlier] < taken_at:
+            if (x[0] == y[0] and x[:2] != y[:2] and 0 < gap <= cfg.resume_gap_frames
+                    and last[earlier] < taken_at):  # (segments of one target: _segment_links)
                 same[(x, y)] = min(sx[2], sy[2])
     return cross, same
 
@@ -221,19 +372,27 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     pairs: (camera A, camera B, final H_b_from_a or None) per declared overlap
     use_h: False for the FOV-only baseline: every pair keeps the run's own links
     """
-    nodes = _nodes(rows)
     frames = _frames(rows)
-    scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
+    assigned: dict[tuple[str, str], list[tuple[int, int]]] = {}
+    fragment_votes: dict[tuple[str, str], list[tuple[int, int]]] = {}
     without_h: set[frozenset[str]] = set()
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
-            continue
+        else:
+            assigned[a, b], fragment_votes[a, b] = _assignments(
+                rows, frames, (a, b), np.asarray(H, np.float64), cfg)
+    segment = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
+    nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
+                                 strict=True))
+    scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
+    for names, votes in assigned.items():
         scored += [(0, v, x, y, "homography") for v, x, y in _homography_votes(
-            rows, nodes, frames, (a, b), np.asarray(H, np.float64), cfg)]
+            rows, nodes, frames, names, votes + fragment_votes[names], cfg)]
     cross, same = _online_links(rows, nodes, without_h, cfg)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
+    scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames)
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
