@@ -247,6 +247,52 @@ def test_resolved_layer_shows_what_mvtrack_track_writes(
             {f: sorted(v) for f, v in expected.items()}
 
 
+def test_identity_switches_cut_by_the_resolution_are_warnings_at_their_frame(
+        pair_recording: tuple[dict[str, Any], Any, Path, Path], tmp_path: Path) -> None:
+    """cam1's target 7 covers person A, then person B from frame 40 (cam0 sees both apart):
+    the whole-run labels cut it there, and the event log says so at that frame."""
+    from mvtrack.io.results import TrackRows
+    from mvtrack.params import ResolveConfig
+    from mvtrack.stages.resolve import resolve_labels
+    from mvtrack.viz.sink import RerunSink
+
+    _, _, clip, _ = pair_recording
+    frames = np.arange(80)
+    rows = [("cam0", 1, 1, frames, 100.0), ("cam0", 2, 2, frames, 200.0),
+            ("cam1", 7, 3, frames[:40], 100.0), ("cam1", 7, 3, frames[40:], 200.0)]
+    n = sum(len(f) for *_, f, _ in rows)
+    feet = np.concatenate([np.c_[100.0 + (40.0 if c == "cam1" else 0.0) + 0.1 * f,
+                                 np.full(len(f), y)] for c, _, _, f, y in rows])
+    track_rows = TrackRows(
+        np.concatenate([f for *_, f, _ in rows]).astype(np.int64),
+        np.concatenate([[c] * len(f) for c, _, _, f, _ in rows]),
+        np.concatenate([[t] * len(f) for _, t, _, f, _ in rows]).astype(np.int64),
+        np.concatenate([[m] * len(f) for _, _, m, f, _ in rows]).astype(np.int64),
+        feet, np.c_[feet - [5.0, 50.0], np.tile([10.0, 50.0], (n, 1))], np.full(n, 50.0))
+    shift = np.array([[1.0, 0.0, 40.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    res = resolve_labels(track_rows, [("cam0", "cam1", shift)], ResolveConfig())
+    assert [(sw.track, sw.cut) for sw in res.switches] == [(("cam1", 7), 40)]
+    rrd = tmp_path / "switch.rrd"
+    with open_clip(clip) as opened:
+        rec = new_recording("switch", deterministic=True)
+        rec.save(rrd)
+        sink = RerunSink(rec, opened.spec, _params())
+        sink.log_resolved(track_rows, res.meta, range(80), res.switches)
+        sink.close()
+        rec.disconnect()
+    warnings = []
+    for chunk in RrdReader(rrd).store().stream().to_chunks():
+        if str(chunk.entity_path) == paths.EVENTS:
+            rb = chunk.to_record_batch()
+            if "frame" in rb.schema.names:
+                warnings += [(f, t[0]) for f, t in zip(rb.column("frame").to_pylist(),
+                                                       rb.column("TextLog:text").to_pylist(),
+                                                       strict=True) if "changed person" in t[0]]
+    assert warnings == [(40, "whole-run labels: cam1 t7 changed person about here: it matched "
+                             "cam0 t1 before and cam0 t2 after; the two parts are labelled "
+                             "apart")]
+
+
 # ------------------------------------------------------------------------------- blueprints
 
 

@@ -51,7 +51,7 @@ import numpy as np
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
 
-__all__ = ["Resolution", "ResolvedLink", "Rows", "resolve_labels"]
+__all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
 
 Track = tuple[str, int]
 """(camera, camera-local target label): a target's whole life."""
@@ -80,6 +80,20 @@ class Rows(Protocol):
 
 
 @dataclass(frozen=True)
+class Switch:
+    """A target that changed person: its votes went from ``before`` to ``after`` (targets of
+    another camera) and it was cut at frame ``cut`` (its rows from there on are a new
+    segment); ``frames``: the end of the first run of votes, the gap and the start of the
+    second."""
+
+    track: Track
+    before: Track
+    after: Track
+    cut: int
+    frames: range
+
+
+@dataclass(frozen=True)
 class ResolvedLink:
     """One link considered: ``source`` "homography" (votes), "online" (the run's own) or
     "segment" (a target's segments before and after an identity switch)."""
@@ -98,6 +112,7 @@ class Resolution:
     meta: np.ndarray  # (N,) int64
     links: tuple[ResolvedLink, ...]
     online_to_resolved: dict[tuple[int, int], int]  # (frame, online meta) -> resolved meta
+    switches: tuple[Switch, ...] = ()  # targets cut where they changed person
 
     def cue_meta(self, frames: np.ndarray, metas: np.ndarray) -> np.ndarray:
         """Resolved metas for (frame, online meta) pairs; a meta with no target in that frame
@@ -184,20 +199,8 @@ class _Tracks:
         return best
 
 
-@dataclass(frozen=True)
-class _Switch:
-    """A target's votes went from partner ``before`` to partner ``after`` (another camera's
-    targets) around frame ``cut``; ``frames``: the runs' ends and the gap between."""
-
-    track: Track
-    before: Track
-    after: Track
-    cut: int
-    frames: range
-
-
 def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
-              cfg: ResolveConfig) -> list[_Switch]:
+              cfg: ResolveConfig) -> list[Switch]:
     """Where a target's votes change person. ``partners``: its (frame, voted partner) in one
     other camera, by frame. Runs of one partner shorter than ``switch_min_votes`` are ignored;
     two long runs in a row whose partners are two people (present together longer than
@@ -215,13 +218,13 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
         else:
             long.append(run)
     margin = cfg.switch_min_votes
-    return [_Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2,
+    return [Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2,
                     range(p[2] - margin, q[1] + margin + 1))
             for p, q in pairwise(long)
             if tracks.together(p[0], q[0]) > cfg.max_shared_frames]
 
 
-def _who_switched(sw: _Switch, by_track: dict[Track, list[_Switch]], tracks: _Tracks) -> bool:
+def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Tracks) -> bool:
     """Whether ``sw``'s own target changed person. Two people swapped in one camera make
     switches in both: each of the other camera's two targets sees this one go from one to the
     other. The camera where the two were nearer each other (in body heights) then is the one
@@ -236,9 +239,10 @@ def _who_switched(sw: _Switch, by_track: dict[Track, list[_Switch]], tracks: _Tr
     return True
 
 
-def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig) -> np.ndarray:
+def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig
+              ) -> tuple[np.ndarray, list[Switch]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
-    (:func:`_switches`, :func:`_who_switched`); 0 without cuts."""
+    (:func:`_switches`, :func:`_who_switched`; 0 without cuts), and the switches cut."""
     partners: dict[tuple[Track, str], list[tuple[int, Track]]] = {}
     cams, targets, frame = rows.camera.tolist(), rows.target.tolist(), rows.frame.tolist()
     for i, k in votes:
@@ -246,16 +250,19 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig) -> n
         partners.setdefault((a, b[0]), []).append((frame[i], b))
         partners.setdefault((b, a[0]), []).append((frame[k], a))
     tracks = _Tracks(rows)
-    by_track: dict[Track, list[_Switch]] = {}
+    by_track: dict[Track, list[Switch]] = {}
     for (track, _), seq in partners.items():
         seq.sort()
         by_track.setdefault(track, []).extend(_switches(track, seq, tracks, cfg))
     segment = np.zeros(len(frame), np.int64)
+    cut: list[Switch] = []
     for track, switches in by_track.items():
-        for cut in {sw.cut for sw in switches if _who_switched(sw, by_track, tracks)}:
+        mine = {sw.cut: sw for sw in switches if _who_switched(sw, by_track, tracks)}
+        cut += sorted(mine.values(), key=lambda sw: sw.cut)
+        for at in mine:
             for f, i in tracks.at[track].items():
-                segment[i] += f >= cut
-    return segment
+                segment[i] += f >= at
+    return segment, cut
 
 
 def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
@@ -382,7 +389,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
         else:
             assigned[a, b], fragment_votes[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
-    segment = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
+    segment, switches = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
@@ -402,5 +409,5 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     for f, m, r in zip(rows.frame.tolist(), rows.meta.tolist(), meta.tolist(), strict=True):
         mapping.setdefault((f, m), Counter())[r] += 1
     return Resolution(meta, tuple(links),
-                      {k: c.most_common(1)[0][0] for k, c in mapping.items()})
+                      {k: c.most_common(1)[0][0] for k, c in mapping.items()}, tuple(switches))
 

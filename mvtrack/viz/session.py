@@ -81,8 +81,9 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     kept = rows.rows()
     labels = {"": kept.meta}
     if params.resolve.labels == "whole_run":
-        meta = resolve_rows(kept, summary.pairs, params).meta
-        sink.log_resolved(kept, meta, done)
+        res = resolve_rows(kept, summary.pairs, params)
+        meta = res.meta
+        sink.log_resolved(kept, meta, done, res.switches)
         labels = {"": meta, "_online": kept.meta}
     figures = summary_figures(sink, summary)
     if sink.truth is not None and len(kept.frame):

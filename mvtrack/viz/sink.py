@@ -35,7 +35,7 @@ from __future__ import annotations
 import dataclasses
 import time
 import uuid
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from functools import lru_cache, partial
@@ -48,6 +48,7 @@ from mvtrack.io import ClipSpec, Truth
 from mvtrack.io.results import TrackRows
 from mvtrack.params import Params, dump_params
 from mvtrack.pipeline import CameraResult, FrameResult
+from mvtrack.stages.resolve import Switch
 from mvtrack.viz import paths
 from mvtrack.viz.colors import camera_color
 from mvtrack.viz.log import (
@@ -267,8 +268,7 @@ class RerunSink:
         """Log every layer of ``result``."""
         start = time.perf_counter()
         rec = self.rec
-        rec.set_time(paths.FRAME_TIMELINE, sequence=result.index)
-        rec.set_time(paths.TIME_TIMELINE, duration=result.index / self.spec.fps)
+        self._set_frame(result.index)
         top = max((int(m.max()) for m in result.metas.values() if len(m)), default=0)
         self._grow_metas(top)
         images = self._images.submit(self._frame_images, result) if self._images else None
@@ -296,6 +296,10 @@ class RerunSink:
         seconds = time.perf_counter() - start
         self.log_seconds += seconds
         rec.log(paths.log_ms(), rr.Scalars(1000.0 * seconds))
+
+    def _set_frame(self, index: int) -> None:
+        self.rec.set_time(paths.FRAME_TIMELINE, sequence=index)
+        self.rec.set_time(paths.TIME_TIMELINE, duration=index / self.spec.fps)
 
     def _camera_images(self, cam: CameraResult, metas: np.ndarray) -> list[tuple[str, Any]]:
         """(layer, archetype) of a camera's image layers: the frame, B (every
@@ -491,12 +495,14 @@ class RerunSink:
 
     # ----------------------------------------------------------------------------- end
 
-    def log_resolved(self, rows: TrackRows, meta: np.ndarray, done: range) -> None:
+    def log_resolved(self, rows: TrackRows, meta: np.ndarray, done: range,
+                     switches: Sequence[Switch] = ()) -> None:
         """Whole-run labels (``meta``, one per row of ``rows``, the run's targets with their
         online metas) on ``/cameras/{cam}/resolved``: a box in the resolved meta's colour,
         labelled "t3 → m7" under the online label, on every target whose resolved meta differs
         from the one it carried online, for every frame of ``done`` (the frames logged). One
-        columnar send per camera, after the run."""
+        columnar send per camera, after the run. Each of ``switches`` (targets the resolution
+        cut where they changed person) is a warning in the event log at its frame."""
         if len(meta) != len(rows.frame):
             raise ValueError(f"log_resolved: {len(rows.frame)} rows but {len(meta)} metas")
         if not len(done):
@@ -526,6 +532,14 @@ class RerunSink:
                 rr.TimeColumn(paths.FRAME_TIMELINE, sequence=frames),
                 rr.TimeColumn(paths.TIME_TIMELINE, duration=frames / self.spec.fps),
             ], columns=columns, recording=self.rec)
+        for sw in switches:
+            if sw.cut in done:
+                self._set_frame(sw.cut)
+                (name, target), (other, before), (_, after) = sw.track, sw.before, sw.after
+                self.warn(f"whole-run labels: {name} t{target} changed person about here: it "
+                          f"matched {other} t{before} before and {other} t{after} after; the "
+                          "two parts are labelled apart")
+        self._set_frame(done.stop - 1)
         self.event(f"whole-run labels: {int(changed.sum())} of {len(meta)} target rows carry "
                    "another meta than they had online, drawn as thick boxes labelled "
                    "'t → m' (/cameras/*/resolved); `mvtrack track` writes these to tracks.csv")
