@@ -186,6 +186,38 @@ def test_legs_tracked_apart_join_their_person_by_fragment_votes() -> None:
     assert metas["cam0", 9] != metas["cam0", 1]
 
 
+def _walker(cam: str, target: int, meta: int, frames: range, x0: float, vx: float) -> Rows:
+    """One target walking along x at ``vx`` px per frame from ``x0`` at frame 0."""
+    f = np.array(frames, np.int64)
+    return Rows(f, np.array([cam] * len(f)), np.full(len(f), target, np.int64),
+                np.full(len(f), meta, np.int64), np.c_[x0 + vx * f, np.full(len(f), 100.0)],
+                np.full(len(f), 50.0))
+
+
+def _cat(*parts: Rows) -> Rows:
+    return Rows(*(np.concatenate([getattr(r, f) for r in parts])
+                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+
+
+def test_a_person_hidden_for_a_while_is_stitched_on_one_camera() -> None:
+    """cam0 only: target 1 walks right at 2 px/frame until frame 39 and target 2 appears at
+    frame 60 where it would be by then (x 220): one person behind a pillar, one meta. Target 3
+    appears there as well but walking left: no stitch; target 4 walking right 2 heights off:
+    none either."""
+    hidden = _cat(_walker("cam0", 1, 1, range(40), 100.0, 2.0),
+                  _walker("cam0", 2, 2, range(60, 100), 100.0, 2.0))
+    res = resolve_labels(hidden, [], CFG)
+    assert len(set(res.meta.tolist())) == 1
+    assert [(x.a, x.b, x.source, x.joined) for x in res.links] == [
+        (("cam0", 1, 0), ("cam0", 2, 0), "stitch", True)]
+    back = _cat(_walker("cam0", 1, 1, range(40), 100.0, 2.0),
+                _walker("cam0", 3, 3, range(60, 100), 340.0, -2.0))  # x 220 at frame 60
+    far = _cat(_walker("cam0", 1, 1, range(40), 100.0, 2.0),
+               _walker("cam0", 4, 4, range(60, 100), 200.0, 2.0))  # x 320 at 60: 100 px off
+    for rows in (back, far):
+        assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 2
+
+
 def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:
     """cam0 target 1 carries meta 7, then (online) meta 8 from frame 40 while it stays in view
     until frame 80; target 2, another person, takes meta 7 at frame 50. Target 1 was not gone,

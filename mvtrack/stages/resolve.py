@@ -27,7 +27,11 @@ the results give each target one meta for its whole life:
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
   targets is the online stage changing its mind, not one person coming back);
-- links join strongest first (cross-camera votes before same-camera continuity). A join that
+- **stitches**: a target of one camera that begins, at most ``stitch_max_gap_frames`` after
+  another ended, where that one would be had it walked on as before, continues it (a person
+  hidden behind a pillar while no other camera saw both parts);
+- links join strongest first (cross-camera votes, then same-camera continuity, then
+  stitches). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
   frames into one meta is refused: those are two people, not two fragments of one;
 - each group of targets keeps the online meta most of its rows carried, unless a larger group
@@ -288,6 +292,65 @@ def _segment_links(nodes: list[Node]) -> list[tuple[int, Node, Node]]:
             for n in sorted(count) if (n[0], n[1], n[2] + 1) in count]
 
 
+@dataclass(frozen=True)
+class _Ends:
+    """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
+    velocity (px per frame, over its first and last ``_VELOCITY_FRAMES`` rows), and its
+    median height (px)."""
+
+    first: int
+    last: int
+    start_xy: np.ndarray
+    end_xy: np.ndarray
+    start_v: np.ndarray
+    end_v: np.ndarray
+    height: float
+
+
+_VELOCITY_FRAMES = 10
+
+
+def _ends(rows: Rows, nodes: list[Node]) -> dict[Node, _Ends]:
+    at: dict[Node, list[int]] = {}
+    for i, n in enumerate(nodes):
+        at.setdefault(n, []).append(i)
+    out = {}
+    for n, idx in at.items():
+        order = np.array(idx)[np.argsort(rows.frame[idx], kind="stable")]
+        f, xy = rows.frame[order], rows.feet[order]
+        k = min(_VELOCITY_FRAMES, len(order)) - 1
+        span_start, span_end = max(int(f[k] - f[0]), 1), max(int(f[-1] - f[-1 - k]), 1)
+        out[n] = _Ends(int(f[0]), int(f[-1]), xy[0], xy[-1], (xy[k] - xy[0]) / span_start,
+                       (xy[-1] - xy[-1 - k]) / span_end, float(np.median(rows.height[order])))
+    return out
+
+
+def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig
+                  ) -> list[tuple[int, Node, Node]]:
+    """(rows of the shorter, earlier node, later node): one camera's target that ended and
+    one that began at most ``stitch_max_gap_frames`` later where the first, carried on at its
+    last velocity, would be (within ``stitch_gate_heights`` of its height), walking the same
+    way, each the other's only such match: a person hidden behind something for a while."""
+    ends = _ends(rows, nodes)
+    count = Counter(nodes)
+    best: dict[Node, tuple[float, Node]] = {}
+    back: dict[Node, tuple[float, Node]] = {}
+    for x, ex in ends.items():
+        for y, ey in ends.items():
+            gap = ey.first - ex.last
+            if y[0] != x[0] or not 0 < gap <= cfg.stitch_max_gap_frames:
+                continue
+            d = float(np.linalg.norm(ey.start_xy - (ex.end_xy + gap * ex.end_v)))
+            if d > cfg.stitch_gate_heights * ex.height or float(ex.end_v @ ey.start_v) < 0:
+                continue
+            cost = d / ex.height
+            if cost < best.get(x, (np.inf,))[0]:
+                best[x] = (cost, y)
+            if cost < back.get(y, (np.inf,))[0]:
+                back[y] = (cost, x)
+    return [(min(count[x], count[y]), x, y) for x, (_, y) in best.items() if back[y][1] == x]
+
+
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
                   cfg: ResolveConfig) -> tuple[Counter, Counter]:
     """The run's own links: cross-camera (same meta in one frame, only for pairs without H)
@@ -400,6 +463,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes)]
+    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(rows, nodes, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames)
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
