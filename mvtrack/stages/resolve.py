@@ -99,8 +99,9 @@ class Switch:
 
 @dataclass(frozen=True)
 class ResolvedLink:
-    """One link considered: ``source`` "homography" (votes), "online" (the run's own) or
-    "segment" (a target's segments before and after an identity switch)."""
+    """One link considered: ``source`` "homography" (votes), "online" (the run's own),
+    "segment" (a target's segments before and after an identity switch) or "stitch" (one
+    camera's target that continues another after a gap)."""
 
     a: Node
     b: Node
@@ -235,7 +236,9 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
     that swapped them; without such a mirror switch the target's own camera did."""
     for other in (sw.before, sw.after):
         for mirror in by_track.get(other, ()):
-            if sw.track in (mirror.before, mirror.after) and set(sw.frames) & set(mirror.frames):
+            overlap = (sw.frames.start < mirror.frames.stop
+                       and mirror.frames.start < sw.frames.stop)
+            if sw.track in (mirror.before, mirror.after) and overlap:
                 rival = mirror.after if mirror.before == sw.track else mirror.before
                 mine = tracks.nearest(sw.track, rival, sw.frames)
                 theirs = tracks.nearest(sw.before, sw.after, sw.frames)
