@@ -22,6 +22,7 @@ from mvtrack.stages.background import (
     _fit_sizes,
     _grow_down,
     background_step,
+    link_groups,
     min_area_at,
     stacked_boxes,
     train_background,
@@ -671,6 +672,20 @@ def test_lost_legs_are_grown_back(regrow_legs: bool, legs: str) -> None:
         else:
             assert r.distance[80:95, x + 2 : x + 4].min() > CFG.t_low
             assert not r.candidate[80:95, x + 2 : x + 4].any()
+
+
+@settings(max_examples=200, deadline=None)
+@given(upper=arrays(bool, st.integers(0, 12).map(lambda n: (n, n))))
+def test_link_groups_equals_scipy_connected_components(upper: np.ndarray) -> None:
+    """The small-graph components the blob grouping and the tracker use: the same count and
+    the same numbering as scipy's (components in order of their first node)."""
+    from scipy.sparse import csr_matrix
+    from scipy.sparse.csgraph import connected_components
+
+    linked = upper | upper.T
+    n, group = link_groups(linked)
+    n_ref, ref = connected_components(csr_matrix(linked), directed=False)
+    assert n == n_ref and np.array_equal(group, ref)
 
 
 @settings(max_examples=60, deadline=None)

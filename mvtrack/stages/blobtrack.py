@@ -59,11 +59,9 @@ import cv2
 import numpy as np
 from scipy.ndimage import uniform_filter1d
 from scipy.signal import find_peaks
-from scipy.sparse import csr_matrix
-from scipy.sparse.csgraph import connected_components
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import SizeModel, box_intersections, stacked_boxes
+from mvtrack.stages.background import SizeModel, box_intersections, link_groups, stacked_boxes
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -541,7 +539,7 @@ def _reunite(
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
     legs = _legs_of(boxes, ctx.cfg)
     linked = _stacked(boxes, ctx) | legs | legs.T
-    n_groups, group = connected_components(csr_matrix(linked), directed=False)
+    n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
         return heirs
     kept = []
