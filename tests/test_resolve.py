@@ -138,6 +138,38 @@ def test_a_swap_is_blamed_on_the_camera_where_the_two_overlapped() -> None:
     assert cut == {("cam1", 7, 0), ("cam1", 8, 0)}
 
 
+def _left_and_came_back(jump: bool) -> Rows:
+    """cam1's target 7 is seen from frame 0 to 99; cam0 sees one person as target 1 (frames
+    0-39, where cam1's target is) and another as target 2 (frames 60-99). Without ``jump``,
+    cam1's target walks on smoothly: one person who left cam0 and came back. With it, cam1's
+    feet jump 100 px at frame 50: its label moved to someone else."""
+    y = np.where(np.arange(100) < 50, 100.0, 200.0) if jump else np.full(100, 100.0)
+    f = np.arange(100)
+    cam1 = Rows(f, np.array(["cam1"] * 100), np.full(100, 7), np.full(100, 3),
+                np.c_[140.0 + 0.1 * f, y], np.full(100, 50.0))
+    cam0 = _cat(
+        Rows(f[:40], np.array(["cam0"] * 40), np.full(40, 1), np.full(40, 1),
+             np.c_[100.0 + 0.1 * f[:40], y[:40]], np.full(40, 50.0)),
+        Rows(f[60:], np.array(["cam0"] * 40), np.full(40, 2), np.full(40, 2),
+             np.c_[100.0 + 0.1 * f[60:], y[60:]], np.full(40, 50.0)))
+    return _cat(cam0, cam1)
+
+
+def test_a_jump_between_partners_never_seen_together_is_a_switch() -> None:
+    """Two cam0 targets never seen together may be one person: cam1's target is cut between
+    its votes for them only when it jumped there, and its parts are not rejoined."""
+    smooth = resolve_labels(_left_and_came_back(jump=False), [("cam0", "cam1", SHIFT)], CFG)
+    assert len(set(smooth.meta.tolist())) == 1 and not smooth.switches
+    rows = _left_and_came_back(jump=True)
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    assert [(sw.track, sw.cut, sw.rejoin) for sw in res.switches] == [(("cam1", 7), 50, False)]
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] != metas["cam0", 2]
+    cam1 = rows.camera == "cam1"
+    assert set(res.meta[cam1 & (rows.frame < 50)].tolist()) == metas["cam0", 1]
+    assert set(res.meta[cam1 & (rows.frame >= 50)].tolist()) == metas["cam0", 2]
+
+
 def test_a_short_run_of_votes_is_no_switch() -> None:
     """Under ``switch_min_votes`` frames with the other person (people passing close by) do
     not cut a target: it keeps one meta, its person's."""

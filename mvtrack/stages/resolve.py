@@ -22,7 +22,9 @@ the results give each target one meta for its whole life:
   (two people crossing at a door or a frame edge): it is cut there into segments, which vote
   apart; consecutive segments are rejoined (after the votes) unless that joins two people.
   Two people swapped by one camera make mirror switches in both cameras; only the targets of
-  the camera where the two came nearer each other (in body heights) are cut;
+  the camera where the two came nearer each other (in body heights) are cut. Two partners
+  never seen together may be one person who left and came back: the target is cut only if
+  its feet jumped between the runs (``switch_jump_heights``), and those parts stay apart;
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
@@ -95,6 +97,7 @@ class Switch:
     after: Track
     cut: int
     frames: range
+    rejoin: bool = True  # False: the target jumped there, its parts are never rejoined
 
 
 @dataclass(frozen=True)
@@ -203,13 +206,32 @@ class _Tracks:
                 best = min(best, d / max(0.5 * (r.height[i] + r.height[k]), 1.0))
         return best
 
+    def jump(self, p: Track, frames: range, heights: float) -> int | None:
+        """The frame in ``frames`` where the target's feet moved furthest from the frame
+        before, if more than ``heights`` times its median height (not the frame's: a target
+        shrinking at the frame's edge is no jump); else None."""
+        at, r = self.at[p], self.rows
+        scale = max(float(np.median(r.height[list(at.values())])), 1.0)
+        best, where = heights * scale, None
+        for f in frames:
+            i, k = at.get(f - 1), at.get(f)
+            if i is not None and k is not None:
+                d = float(np.linalg.norm(r.feet[k] - r.feet[i]))
+                if d > best:
+                    best, where = d, f
+        return where
+
 
 def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
               cfg: ResolveConfig) -> list[Switch]:
     """Where a target's votes change person. ``partners``: its (frame, voted partner) in one
     other camera, by frame. Runs of one partner shorter than ``switch_min_votes`` are ignored;
     two long runs in a row whose partners are two people (present together longer than
-    ``max_shared_frames``) make a switch, cut half-way between the runs."""
+    ``max_shared_frames``) make a switch, cut half-way between the runs. Partners never seen
+    together may be one person who left the other camera and came back; the switch holds
+    only if the target itself jumped between the runs (feet more than
+    ``switch_jump_heights`` of its height from one frame to the next: the label moved to
+    someone else), and its parts are never rejoined."""
     runs: list[list[Any]] = []  # [partner, first frame, last frame, votes]
     for f, partner in partners:
         if runs and runs[-1][0] == partner:
@@ -223,10 +245,14 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
         else:
             long.append(run)
     margin = cfg.switch_min_votes
-    return [Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2,
-                    range(p[2] - margin, q[1] + margin + 1))
-            for p, q in pairwise(long)
-            if tracks.together(p[0], q[0]) > cfg.max_shared_frames]
+    out = []
+    for p, q in pairwise(long):
+        frames = range(p[2] - margin, q[1] + margin + 1)
+        if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
+            out.append(Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2, frames))
+        elif (at := tracks.jump(track, range(p[2] + 1, q[1] + 1), cfg.switch_jump_heights)):
+            out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
+    return out
 
 
 def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Tracks) -> bool:
@@ -247,9 +273,10 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
 
 
 def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig
-              ) -> tuple[np.ndarray, list[Switch]]:
+              ) -> tuple[np.ndarray, list[Switch], set[Node]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
-    (:func:`_switches`, :func:`_who_switched`; 0 without cuts), and the switches cut."""
+    (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, and the
+    segments that must not rejoin the one before."""
     partners: dict[tuple[Track, str], list[tuple[int, Track]]] = {}
     cams, targets, frame = rows.camera.tolist(), rows.target.tolist(), rows.frame.tolist()
     for i, k in votes:
@@ -263,13 +290,16 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig
         by_track.setdefault(track, []).extend(_switches(track, seq, tracks, cfg))
     segment = np.zeros(len(frame), np.int64)
     cut: list[Switch] = []
+    apart: set[Node] = set()
     for track, switches in by_track.items():
-        mine = {sw.cut: sw for sw in switches if _who_switched(sw, by_track, tracks)}
-        cut += sorted(mine.values(), key=lambda sw: sw.cut)
-        for at in mine:
+        mine = sorted({sw.cut: sw for sw in switches
+                       if _who_switched(sw, by_track, tracks)}.values(), key=lambda sw: sw.cut)
+        cut += mine
+        apart |= {(*track, n + 1) for n, sw in enumerate(mine) if not sw.rejoin}
+        for sw in mine:
             for f, i in tracks.at[track].items():
-                segment[i] += f >= at
-    return segment, cut
+                segment[i] += f >= sw.cut
+    return segment, cut, apart
 
 
 def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
@@ -288,11 +318,13 @@ def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
             if v >= cfg.min_votes and v >= cfg.min_vote_share * together[(x, y)]]
 
 
-def _segment_links(nodes: list[Node]) -> list[tuple[int, Node, Node]]:
-    """(rows of the shorter, segment, next segment) of every target cut into segments."""
+def _segment_links(nodes: list[Node], apart: set[Node]) -> list[tuple[int, Node, Node]]:
+    """(rows of the shorter, segment, next segment) of every target cut into segments, but
+    for the segments in ``apart``."""
     count = Counter(nodes)
     return [(min(count[n], count[(n[0], n[1], n[2] + 1)]), n, (n[0], n[1], n[2] + 1))
-            for n in sorted(count) if (n[0], n[1], n[2] + 1) in count]
+            for n in sorted(count)
+            if (n[0], n[1], n[2] + 1) in count and (n[0], n[1], n[2] + 1) not in apart]
 
 
 @dataclass(frozen=True)
@@ -455,7 +487,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
         else:
             assigned[a, b], fragment_votes[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
-    segment, switches = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
+    segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
@@ -465,7 +497,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     cross, same = _online_links(rows, nodes, without_h, cfg)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
-    scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes)]
+    scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(rows, nodes, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames)
     links = []
