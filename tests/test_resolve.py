@@ -39,6 +39,19 @@ def _rows(tracks: list[tuple[str, int, int, range, tuple[float, float]]]) -> Row
                 np.array(cols[5], np.float64))
 
 
+def _walker(cam: str, target: int, meta: int, frames: range, x0: float, vx: float) -> Rows:
+    """One target walking along x at ``vx`` px per frame from ``x0`` at frame 0."""
+    f = np.array(frames, np.int64)
+    return Rows(f, np.array([cam] * len(f)), np.full(len(f), target, np.int64),
+                np.full(len(f), meta, np.int64), np.c_[x0 + vx * f, np.full(len(f), 100.0)],
+                np.full(len(f), 50.0))
+
+
+def _cat(*parts: Rows) -> Rows:
+    return Rows(*(np.concatenate([getattr(r, f) for r in parts])
+                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+
+
 def _meta_of(rows: Rows, res_meta: np.ndarray) -> dict[tuple[str, int], set[int]]:
     out: dict[tuple[str, int], set[int]] = {}
     for c, t, m in zip(rows.camera.tolist(), rows.target.tolist(), res_meta.tolist(),
@@ -82,9 +95,7 @@ def _swap_rows(switch_at: int) -> Rows:
         ("cam0", 2, 2, range(0, 80), (100.0, 200.0)),
         ("cam1", 7, 3, range(0, switch_at), (100.0, 100.0)),
     ])
-    swapped = _rows([("cam1", 7, 3, range(switch_at, 80), (100.0, 200.0))])
-    return Rows(*(np.concatenate([getattr(rows, f), getattr(swapped, f)])
-                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+    return _cat(rows, _rows([("cam1", 7, 3, range(switch_at, 80), (100.0, 200.0))]))
 
 
 def test_a_target_that_switched_person_is_cut_and_two_people_never_joined() -> None:
@@ -216,19 +227,6 @@ def test_legs_tracked_apart_join_their_person_by_fragment_votes() -> None:
     metas = _meta_of(rows, res.meta)
     assert metas["cam0", 7] == metas["cam0", 1] == metas["cam1", 2]
     assert metas["cam0", 9] != metas["cam0", 1]
-
-
-def _walker(cam: str, target: int, meta: int, frames: range, x0: float, vx: float) -> Rows:
-    """One target walking along x at ``vx`` px per frame from ``x0`` at frame 0."""
-    f = np.array(frames, np.int64)
-    return Rows(f, np.array([cam] * len(f)), np.full(len(f), target, np.int64),
-                np.full(len(f), meta, np.int64), np.c_[x0 + vx * f, np.full(len(f), 100.0)],
-                np.full(len(f), 50.0))
-
-
-def _cat(*parts: Rows) -> Rows:
-    return Rows(*(np.concatenate([getattr(r, f) for r in parts])
-                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
 
 
 def test_a_person_hidden_for_a_while_is_stitched_on_one_camera() -> None:
