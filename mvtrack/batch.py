@@ -3,9 +3,10 @@
     with open_clip(path) as clip:
         summary = track_to(clip, params, range(clip.spec.frame_count), ResultsWriter(out_dir))
 
-Writes `tracks.csv`, `pairs.json`, `cues.csv`, `run.json` (FORMATS.md) and, with
-``resolve.labels = "whole_run"``, rewrites the labels over the whole run (the online ones stay
-in `tracks_online.csv` and `cues_online.csv`). The CLI and `mvtrack sweep` both call this.
+Writes `tracks.csv`, `pairs.json`, `cues.csv`, `run.json` (FORMATS.md), then rewrites them
+as finished over the whole run: feet smoothed over time and, with ``resolve.labels =
+"whole_run"``, whole-run labels (the streamed ones stay in `tracks_online.csv` and
+`cues_online.csv`). The CLI and `mvtrack sweep` both call this.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ from collections.abc import Callable, Mapping
 from mvtrack.io import Clip
 from mvtrack.io.results import ResultsWriter
 from mvtrack.params import Params
-from mvtrack.pipeline import RunSummary, resolve_results, run
+from mvtrack.pipeline import RunSummary, finish_results, run
 from mvtrack.run_info import run_info
 from mvtrack.stages.pair import PairPrior
 
@@ -30,6 +31,5 @@ def track_to(clip: Clip, params: Params, frames: range, writer: ResultsWriter,
     (``summary.interrupted``)."""
     summary = run(clip, params, frames, [writer], progress=progress, priors=priors)
     writer.close(run_info(clip.spec, params, frames, summary), summary.pairs)
-    if params.resolve.labels == "whole_run":
-        resolve_results(writer.out_dir, summary.pairs, params)
+    finish_results(writer.out_dir, summary.pairs, params, clip.spec.fps)
     return summary

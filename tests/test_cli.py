@@ -6,6 +6,7 @@ import csv
 import json
 from pathlib import Path
 
+import numpy as np
 import pytest
 from typer.testing import CliRunner
 
@@ -104,12 +105,25 @@ def test_track_then_eval(small_clip: Path, tmp_path: Path) -> None:
 
 
 def test_track_online_labels_only(small_clip: Path, tmp_path: Path) -> None:
+    """Online labels with smoothed feet; with neither whole-run step, one streamed file."""
     out = tmp_path / "res"
     result = runner.invoke(app, ["track", str(small_clip), "--out", str(out), "--frames", "0:30",
                                  "--mask-every", "0", "--set", "resolve.labels=online"])
     assert result.exit_code == 0, result.output
-    assert (out / "tracks.csv").is_file() and not (out / "tracks_online.csv").exists()
+    final, online = read_tracks(out / "tracks.csv"), read_tracks(out / "tracks_online.csv")
+    assert np.array_equal(final.meta, online.meta)
+    assert np.array_equal(final.boxes_xywh, online.boxes_xywh)
+    moved = np.linalg.norm(final.feet - online.feet, axis=1) / online.height
+    assert 0.0 < moved.max() and np.median(moved) < 0.1, moved
     assert json.loads((out / "run.json").read_text())["thresholds"]["resolve"]["labels"] == "online"
+
+    raw = tmp_path / "raw"
+    result = runner.invoke(app, ["track", str(small_clip), "--out", str(raw), "--frames", "0:30",
+                                 "--mask-every", "0", "--set", "resolve.labels=online",
+                                 "--set", "feet.smooth_seconds=0"])
+    assert result.exit_code == 0, result.output
+    assert (raw / "tracks.csv").is_file() and not (raw / "tracks_online.csv").exists()
+    assert np.array_equal(read_tracks(raw / "tracks.csv").feet, online.feet)
 
 
 def test_track_with_bad_threshold_fails_before_work(small_clip: Path, tmp_path: Path) -> None:

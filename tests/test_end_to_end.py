@@ -40,12 +40,14 @@ def metrics(tmp_path_factory: pytest.TempPathFactory) -> dict[str, dict[str, Any
 
 
 def test_front_end_finds_people_and_their_feet(metrics: dict[str, dict[str, Any]]) -> None:
-    """Measured: recall 0.977 / 0.952, precision 0.958 / 0.962, feet median 3.1 / 2.4 px and
-    p90 8.3 / 7.2 px (before legs were grown back below the torso: p90 10.8 / 12.8; before
-    gray trousers were told from shadow by hue: 16.0 / 19.2). Issue 3 asks 0.95 / 0.95."""
+    """Issue 3's targets: recall and precision >= 0.95, median foot error <= 3 px. Measured:
+    recall 0.987 / 0.966, precision 0.966 / 0.960, feet median 2.3 / 1.8 px and p90 5.5 /
+    4.5 px (feet per frame, before smoothing over time: 3.1 / 2.4 and 8.3 / 7.2, recall 0.977
+    / 0.952, precision 0.958 / 0.962; before legs were grown back below the torso: p90 10.8 /
+    12.8; before gray trousers were told from shadow by hue: 16.0 / 19.2)."""
     for cam in metrics["homography"]["cameras"].values():
-        assert cam["recall"] >= 0.93 and cam["precision"] >= 0.92, cam
-        assert cam["foot_error_px_median"] <= 3.6 and cam["foot_error_px_p90"] <= 10.0, cam
+        assert cam["recall"] >= 0.95 and cam["precision"] >= 0.95, cam
+        assert cam["foot_error_px_median"] <= 3.0 and cam["foot_error_px_p90"] <= 7.0, cam
 
 
 def test_pair_geometry_is_learned_from_people_walking(
@@ -67,14 +69,15 @@ def test_pair_geometry_is_learned_from_people_walking(
 
 
 def test_homography_matcher_beats_the_fov_baseline(metrics: dict[str, dict[str, Any]]) -> None:
-    """Measured, labels resolved over the whole run (tracks.csv): IDF1 0.959 against 0.870 for
-    FOV lines alone, consistency 0.991 against 0.787 (issue 5 asks 0.95 / 0.98). As assigned
+    """Measured, labels resolved over the whole run (tracks.csv): IDF1 0.970 against 0.870 for
+    FOV lines alone, consistency 1.0 against 0.787 (the baseline's before feet were smoothed
+    over time; issue 5 asks 0.95 / 0.98). As assigned
     online (tracks_online.csv): 0.834 against 0.670, consistency 0.726 against 0.391: people
     in both views from frame 0 cannot share a label online before H exists (frame 100)."""
     h, f = metrics["homography"]["labels"], metrics["fov"]["labels"]
     assert h["idf1_global"] >= f["idf1_global"] + 0.05, (h["idf1_global"], f["idf1_global"])
     assert h["consistency"] >= f["consistency"] + 0.15, (h["consistency"], f["consistency"])
-    assert h["idf1_global"] >= 0.93 and h["consistency"] >= 0.98, h
+    assert h["idf1_global"] >= 0.95 and h["consistency"] >= 0.98, h
     h, f = metrics["homography"]["labels_online"], metrics["fov"]["labels_online"]
     assert h["idf1_global"] >= f["idf1_global"] + 0.02, (h["idf1_global"], f["idf1_global"])
     assert h["consistency"] >= f["consistency"] + 0.05, (h["consistency"], f["consistency"])

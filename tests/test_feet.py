@@ -15,7 +15,7 @@ from scipy import ndimage
 
 from mvtrack.params import FeetConfig, TrackerConfig
 from mvtrack.stages.blobtrack import track_boxes, track_masks, tracker_init
-from mvtrack.stages.feet import feet_bbox, feet_from_box, feet_pca, target_feet
+from mvtrack.stages.feet import feet_bbox, feet_from_box, feet_pca, smooth_feet, target_feet
 
 CFG = FeetConfig()
 
@@ -309,3 +309,55 @@ def test_tilted_scenario_truth_masks(tmp_path: Path) -> None:
     err_box = np.median([np.linalg.norm(feet_bbox(m).point - t) for m, t in people])
     assert err_pca <= 3.0, (err_pca, err_box)
     assert err_pca < err_box, (err_pca, err_box)
+
+
+# --------------------------------------------------------------------------- smoothing
+
+
+def _walk(frames: np.ndarray, swing_px: float) -> tuple[np.ndarray, np.ndarray]:
+    """A straight walk (the ground point) and its feet swinging along it once a step (12
+    frames at 25 fps), as the midpoint of two walking feet does."""
+    truth = np.c_[40.0 + 1.5 * frames, 120.0 + 0.4 * frames]
+    swing = swing_px * np.sin(2 * np.pi * frames / 12.0)
+    direction = np.array([1.5, 0.4]) / np.hypot(1.5, 0.4)
+    return truth, truth + swing[:, None] * direction
+
+
+def test_smoothing_removes_the_gait_swing_without_lag() -> None:
+    f = np.arange(100)
+    truth, feet = _walk(f, 3.0)
+    out = smooth_feet(f, np.zeros(100, np.int64), feet, np.full(100, 40.0), 8, 1.0)
+    raw_err = np.median(np.linalg.norm(feet - truth, axis=1))
+    err = np.linalg.norm(out - truth, axis=1)
+    assert raw_err > 1.8
+    assert np.median(err) < 0.35 * raw_err, (np.median(err), raw_err)
+    # no lag: along the walk the error has no sign (a causal mean would trail by ~6 px)
+    along = (out - truth) @ (np.array([1.5, 0.4]) / np.hypot(1.5, 0.4))
+    assert abs(float(np.mean(along[8:-8]))) < 0.1
+
+
+def test_smoothing_keeps_tracks_apart_and_jumps_sharp() -> None:
+    f = np.arange(40)
+    _, a = _walk(f, 2.0)
+    b = a + [0.0, 60.0]
+    b[20:] += [45.0, 0.0]  # a split: the blob's feet move 45 px (> 1 height of 40) at once
+    frames = np.r_[f, f]
+    track = np.r_[np.zeros(40, np.int64), np.ones(40, np.int64)]
+    out = smooth_feet(frames, track, np.r_[a, b], np.full(80, 40.0), 8, 1.0)
+    smooth_a, smooth_b = out[:40], out[40:]
+    assert np.abs(smooth_a - a).max() < 3.0  # one track's fit never uses the other's rows
+    assert np.linalg.norm(smooth_b[20] - smooth_b[19]) > 40.0  # the jump stays a jump
+    # a track too short to fit (two rows) and half_window 0 keep their feet
+    short = smooth_feet(np.array([0, 1]), np.array([5, 5]), a[:2], np.full(2, 40.0), 8, 1.0)
+    assert np.array_equal(short, a[:2])
+    assert np.array_equal(smooth_feet(f, np.zeros(40, np.int64), a, np.full(40, 40.0), 0, 1.0), a)
+
+
+def test_smoothing_is_independent_of_row_order() -> None:
+    f = np.arange(30)
+    _, a = _walk(f, 2.0)
+    frames, track, feet = np.r_[f, f], np.r_[np.zeros(30, int), np.ones(30, int)], np.r_[a, a]
+    perm = np.random.default_rng(0).permutation(60)
+    out = smooth_feet(frames, track, feet, np.full(60, 40.0), 6, 1.0)
+    shuffled = smooth_feet(frames[perm], track[perm], feet[perm], np.full(60, 40.0), 6, 1.0)
+    assert np.allclose(shuffled, out[perm])

@@ -7,7 +7,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pytest
 
-from mvtrack.io.results import ResultsWriter, read_cues, read_tracks, rewrite_labels
+from mvtrack.io.results import ResultsWriter, read_cues, read_tracks, rewrite_tracks
 from mvtrack.params import ParamsError, ResolveConfig
 from mvtrack.stages.resolve import resolve_labels
 
@@ -296,8 +296,8 @@ def test_rewrite_keeps_the_online_files_and_merges_cues(tmp_path) -> None:
         "frame,meta,camera,expected,seen\n0,1,cam0,1,1\n0,2,cam0,1,0\n0,1,cam1,0,0\n"
         "0,2,cam1,1,1\n1,2,cam1,1,0\n")
     online = (tmp_path / "tracks.csv").read_text()
-    rewrite_labels(tmp_path, read_tracks(tmp_path / "tracks.csv"), np.array([1, 1]),
-                   lambda f, m: np.ones_like(m))
+    rows = read_tracks(tmp_path / "tracks.csv")
+    rewrite_tracks(tmp_path, replace(rows, meta=np.array([1, 1])), lambda f, m: np.ones_like(m))
     assert (tmp_path / "tracks_online.csv").read_text() == online
     assert read_tracks(tmp_path / "tracks.csv").meta.tolist() == [1, 1]
     assert read_tracks(tmp_path / "tracks_online.csv").meta.tolist() == [1, 2]
@@ -306,9 +306,6 @@ def test_rewrite_keeps_the_online_files_and_merges_cues(tmp_path) -> None:
                     cues.expected.tolist(), cues.seen.tolist(), strict=True)) == [
         (0, 1, "cam0", True, True), (0, 1, "cam1", True, True), (1, 1, "cam1", True, False)]
     assert len(read_cues(tmp_path / "cues_online.csv").frame) == 5
-    with pytest.raises(ValueError, match=r"tracks\.csv: 2 rows, 3 metas"):
-        rewrite_labels(tmp_path, read_tracks(tmp_path / "tracks.csv"), np.array([1, 1, 1]),
-                       lambda f, m: m)
 
 
 def test_cue_meta_follows_the_targets_and_carries_forward() -> None:

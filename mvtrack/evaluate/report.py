@@ -20,6 +20,7 @@ from mvtrack.evaluate.metrics import FrameRows, MaskScores, detection_scores, id
 from mvtrack.evaluate.pairs import pairs_metrics_for_results
 from mvtrack.io import ClipError, Truth, read_truth
 from mvtrack.io.results import TrackRows, read_tracks
+from mvtrack.stages.feet import smooth_feet
 
 __all__ = ["EvalConfig", "evaluate", "processed_frames", "results_masks", "write_metrics"]
 
@@ -49,10 +50,25 @@ def _pred_rows(rows: TrackRows, ids: np.ndarray, feet: np.ndarray | None = None)
     return FrameRows.of(rows.frame, ids, rows.feet if feet is None else feet)
 
 
-def _bbox_feet(rows: TrackRows) -> np.ndarray:
-    """The classic baseline: bottom centre of each target's box."""
+def _bbox_feet(rows: TrackRows, smoothing: tuple[int, float]) -> np.ndarray:
+    """The classic baseline: bottom centre of each target's box, smoothed over time as the
+    run smoothed its own feet (``smoothing``: :func:`_run_smoothing`), so the two compare
+    like for like."""
     b = rows.boxes_xywh
-    return np.stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]], axis=1)
+    feet = np.stack([b[:, 0] + b[:, 2] / 2, b[:, 1] + b[:, 3]], axis=1)
+    return smooth_feet(rows.frame, rows.target, feet, rows.height, *smoothing)
+
+
+def _run_smoothing(results: Path) -> tuple[int, float]:
+    """(half window in frames, break in heights) of the run's feet smoothing (`run.json`;
+    none for a run from before feet were smoothed)."""
+    path = Path(results) / "run.json"
+    if not path.is_file():
+        return 0, 0.0
+    run = json.loads(path.read_text())
+    feet = run.get("thresholds", {}).get("feet", {})
+    return (round(float(feet.get("smooth_seconds", 0.0)) * float(run["clip"]["fps"])),
+            float(feet.get("smooth_break_heights", 0.0)))
 
 
 def results_masks(results: Path, camera: str) -> dict[int, Path]:
@@ -85,8 +101,9 @@ def _camera_metrics(truth: Truth, rows: TrackRows, results: Path, camera: str,
     mine = rows.of_camera(camera)
     scores: dict[str, Any] = detection_scores(_pred_rows(mine, mine.target), t,
                                               cfg.gate_heights, cfg.min_visible)
-    baseline = detection_scores(_pred_rows(mine, mine.target, _bbox_feet(mine)), t,
-                                cfg.gate_heights, cfg.min_visible)
+    baseline = detection_scores(
+        _pred_rows(mine, mine.target, _bbox_feet(mine, _run_smoothing(results))), t,
+        cfg.gate_heights, cfg.min_visible)
     scores["foot_error_px_median_bbox_baseline"] = baseline["foot_error_px_median"]
     scores["foot_error_px_p90_bbox_baseline"] = baseline["foot_error_px_p90"]
     scores["idf1_single_camera"] = idf1(_pred_rows(mine, mine.target), t, cfg.gate_heights,

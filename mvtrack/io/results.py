@@ -2,8 +2,9 @@
 
 `tracks.csv` is written row by row as frames arrive, so an interrupted run keeps what it did.
 `run.json` is written at the end (and says whether the run was interrupted).
-:func:`rewrite_labels` then replaces the online metas with whole-run ones: the streamed files
-stay beside them as `tracks_online.csv` and `cues_online.csv` (same formats).
+:func:`rewrite_tracks` then replaces the online metas with whole-run ones and the per-frame
+feet with smoothed ones: the streamed files stay beside them as `tracks_online.csv` and
+`cues_online.csv` (same formats).
 
 Optional, beyond FORMATS.md: `masks/<camera>/<frame:06d>.png` every ``mask_every`` frames for
 video cameras, uint8 with 0 background, 1 foreground (tracked target pixels), 2 detected cast
@@ -24,7 +25,7 @@ import numpy as np
 
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
-    "TrackRows", "read_cues", "read_pairs", "read_tracks", "rewrite_labels",
+    "TrackRows", "read_cues", "read_pairs", "read_tracks", "rewrite_tracks",
 ]
 
 TRACKS_HEADER = (
@@ -121,20 +122,20 @@ def _track_row(frame: int, camera: str, target: int, meta: int,
             *(f"{v:.{d}f}" for v, d in zip(numbers, places, strict=True))]
 
 
-def rewrite_labels(out_dir: Path, rows: TrackRows, meta: np.ndarray,
+def rewrite_tracks(out_dir: Path, rows: TrackRows,
                    cue_meta: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> None:
-    """Write ``rows`` (`tracks.csv` as read) again with the metas ``meta``, and `cues.csv` with
-    the metas ``cue_meta(frames, online metas)``; the originals become `*_online.csv`.
+    """Write `tracks.csv` again as ``rows`` (the rows as read, with whole-run metas and
+    smoothed feet), and `cues.csv` with the metas ``cue_meta(frames, online metas)``; the
+    originals become `*_online.csv`.
 
     Cue rows that now name one meta twice in a frame and camera are merged (expected or seen
     by either). Each file is written beside the original, then renamed over it.
     """
     out_dir = Path(out_dir)
-    if len(rows.frame) != len(meta):
-        raise ValueError(f"{out_dir / 'tracks.csv'}: {len(rows.frame)} rows, {len(meta)} metas")
     numbers = np.c_[rows.feet, rows.boxes_xywh, rows.height].tolist()
     tracks = [_track_row(f, c, t, m, tuple(n)) for f, c, t, m, n in zip(
-        rows.frame.tolist(), rows.camera.tolist(), rows.target.tolist(), meta.tolist(), numbers,
+        rows.frame.tolist(), rows.camera.tolist(), rows.target.tolist(), rows.meta.tolist(),
+        numbers,
         strict=True)]
     cues = _csv_rows(out_dir / "cues.csv", CUES_HEADER)
     frames = np.array([int(r[0]) for r in cues], np.int64)

@@ -210,3 +210,58 @@ def target_feet(result: TrackResult, cfg: FeetConfig) -> tuple[np.ndarray, np.nd
     if not records:
         return np.zeros((0, 2)), np.zeros(0)
     return np.stack([r.point for r in records]), np.array([r.height_px for r in records])
+
+
+def smooth_feet(
+    frame: np.ndarray,
+    track: np.ndarray,
+    feet: np.ndarray,
+    height: np.ndarray,
+    half_window: int,
+    break_heights: float,
+) -> np.ndarray:
+    """Each target's feet smoothed over time: a centred local linear fit (offline) [beyond].
+
+    frame (N,) int64; track (N,) int64, one id per target track (one row per frame and track);
+    feet (N, 2) float64 px; height (N,) float64 px. Returns (N, 2) float64.
+
+    The per-frame feet swing about the walker's ground point with the gait (the midpoint of the
+    two feet is ahead of it, then behind it, once a step); fitting a straight walk to the
+    frames within ``half_window`` of each row and taking the fit at that frame removes the
+    swing without the lag of a causal filter (fitted to past frames only, it did not help).
+    The fit never spans a step of the feet of more than ``break_heights`` of the target's
+    height (the smaller of the two frames') per frame: a merge, split or door moved the blob,
+    not the person. A row with fewer than three frames in its piece keeps its feet.
+    """
+    feet = np.asarray(feet, np.float64).reshape(-1, 2)
+    out = feet.copy()
+    if half_window <= 0 or len(feet) < 3:
+        return out
+    frame = np.asarray(frame, np.int64)
+    order = np.lexsort((frame, track))
+    f, xy, h = frame[order], feet[order], np.asarray(height, np.float64)[order]
+    t = np.asarray(track)[order]
+    gap = np.diff(f).astype(np.float64)
+    step = np.linalg.norm(np.diff(xy, axis=0), axis=1)
+    new_piece = (t[1:] != t[:-1]) | (gap <= 0) | (
+        step > break_heights * np.maximum(np.minimum(h[1:], h[:-1]), 1.0) * np.maximum(gap, 1.0))
+    piece = np.concatenate([[0], np.cumsum(new_piece)])
+    # Rows of one piece are contiguous in this order; a neighbour at frame f + d is found
+    # by searching (piece, frame) keys.
+    key = piece * (int(f.max()) - int(f.min()) + 2 * half_window + 2) + (f - f.min())
+    s0, s1, s2 = np.zeros(len(f)), np.zeros(len(f)), np.zeros(len(f))
+    sx, stx = np.zeros((len(f), 2)), np.zeros((len(f), 2))
+    for d in range(-half_window, half_window + 1):
+        j = np.searchsorted(key, key + d)
+        ok = j < len(key)
+        ok[ok] = key[j[ok]] == key[ok] + d
+        s0 += ok
+        s1 += ok * d
+        s2 += ok * d * d
+        sx[ok] += xy[j[ok]]
+        stx[ok] += d * xy[j[ok]]
+    det = s0 * s2 - s1 * s1
+    fit = (s0 >= 3) & (det > 0)
+    smooth = (s2[fit, None] * sx[fit] - s1[fit, None] * stx[fit]) / det[fit, None]
+    out[order[fit]] = smooth
+    return out

@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import contextlib
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from dataclasses import replace
 from pathlib import Path
 
 import cv2
@@ -20,7 +19,7 @@ from mvtrack.evaluate.labels import label_metrics
 from mvtrack.io import Clip, read_truth
 from mvtrack.io.results import RowsCollector
 from mvtrack.params import Params
-from mvtrack.pipeline import RunSummary, resolve_rows, run
+from mvtrack.pipeline import RunSummary, finish_rows, run
 from mvtrack.stages.pair import PairPrior
 from mvtrack.viz.sink import LogOptions, RerunSink
 
@@ -79,16 +78,15 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     when those differ): the numbers ``--watch`` compares."""
     done = range(frames.start, frames.start + summary.frames)
     kept = rows.rows()
-    labels = {"": kept.meta}
-    if params.resolve.labels == "whole_run":
-        res = resolve_rows(kept, summary.pairs, params)
-        meta = res.meta
-        sink.log_resolved(kept, meta, done, res.switches)
-        labels = {"": meta, "_online": kept.meta}
+    final, res = finish_rows(kept, summary.pairs, params, sink.spec.fps)
+    written = {"": final}
+    if res is not None:
+        sink.log_resolved(kept, res.meta, done, res.switches)
+        written["_online"] = kept
     figures = summary_figures(sink, summary)
     if sink.truth is not None and len(kept.frame):
-        for suffix, meta in labels.items():
-            m = label_metrics(sink.truth, replace(kept, meta=meta), done)
+        for suffix, these in written.items():
+            m = label_metrics(sink.truth, these, done)
             figures[f"idf1_global{suffix}"] = float(m["idf1_global"])
             figures[f"consistency{suffix}"] = float(m["consistency"])
     sink.log_summary(figures)
