@@ -92,6 +92,7 @@ PER_FRAME = {  # layer -> archetype column that must be there on every frame
     "blobs": "Boxes2D:half_sizes",
     "targets": "Boxes2D:class_ids",
     "feet": "Points2D:positions",
+    "feet_final": "Points2D:positions",  # logged after the run, for every frame
 }
 
 

@@ -18,7 +18,7 @@ __all__ = [
     "time_panel",
 ]
 
-OVERLAYS = ("image", "labels", "targets", "feet", "resolved", "fov_events", "cues")
+OVERLAYS = ("image", "labels", "targets", "feet", "feet_final", "resolved", "fov_events", "cues")
 """Layers of the main camera view, bottom to top (the frame and what was found on it)."""
 
 

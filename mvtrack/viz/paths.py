@@ -24,6 +24,9 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
                                     label "t{target} m{meta}"
     /cameras/{cam}/feet             Points2D: feet, class id = meta
+    /cameras/{cam}/feet_final       Points2D: the feet `mvtrack track` writes to tracks.csv,
+                                    smoothed over the run, logged for every frame once the run
+                                    ends, class id = whole-run meta
     /cameras/{cam}/resolved         Boxes2D: whole-run labels, logged for every frame once the
                                     run ends, on the targets whose whole-run meta differs from
                                     their online one: class id = that meta, label "t{target} →
@@ -136,7 +139,7 @@ SUMMARY = "/metrics/summary"
 
 CAMERA_LAYERS = (
     "image", "background", "distance", "masks", "labels", "blobs", "targets", "feet",
-    "resolved", "fov_events", "cues",
+    "feet_final", "resolved", "fov_events", "cues",
 )
 """Layers of a camera that have no second camera in their path."""
 

@@ -71,11 +71,11 @@ def summary_figures(sink: RerunSink, summary: RunSummary) -> dict[str, float]:
 def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params: Params,
                frames: range) -> dict[str, float]:
     """After a run over ``frames`` (it may have stopped early: ``summary.frames``): the
-    whole-run labels on the sink (with ``resolve.labels = "whole_run"``, as `mvtrack track`
-    writes them), then the run's figures on ``/metrics/summary`` (:func:`summary_figures`)
-    and, when the clip has truth, ``idf1_global`` and ``consistency`` of the labels as
-    `mvtrack track` writes them (and ``*_online`` of the labels as assigned frame by frame,
-    when those differ): the numbers ``--watch`` compares."""
+    whole-run labels (with ``resolve.labels = "whole_run"``) and the smoothed feet on the
+    sink, as `mvtrack track` writes them, then the run's figures on ``/metrics/summary``
+    (:func:`summary_figures`) and, when the clip has truth, ``idf1_global`` and
+    ``consistency`` of the rows as `mvtrack track` writes them (and ``*_online`` of the rows as
+    made frame by frame, when those differ): the numbers ``--watch`` compares."""
     done = range(frames.start, frames.start + summary.frames)
     kept = rows.rows()
     final, res = finish_rows(kept, summary.pairs, params, sink.spec.fps)
@@ -83,6 +83,8 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     if res is not None:
         sink.log_resolved(kept, res.meta, done, res.switches)
         written["_online"] = kept
+    if params.feet.smooth_seconds > 0:
+        sink.log_final_feet(final, done)
     figures = summary_figures(sink, summary)
     if sink.truth is not None and len(kept.frame):
         for suffix, these in written.items():

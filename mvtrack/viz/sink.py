@@ -528,10 +528,7 @@ class RerunSink:
                 class_ids=meta[sel], labels=text, radii=np.full(len(sel), 2.0),
             ).partition(np.bincount(rows.frame[sel] - first, minlength=len(frames)))
             self.rec.log(path, rr.Boxes2D.from_fields(draw_order=12.0), static=True)
-            rr.send_columns(path, indexes=[
-                rr.TimeColumn(paths.FRAME_TIMELINE, sequence=frames),
-                rr.TimeColumn(paths.TIME_TIMELINE, duration=frames / self.spec.fps),
-            ], columns=columns, recording=self.rec)
+            self._send_frames(path, frames, columns)
         for sw in switches:
             if sw.cut in done:
                 self._set_frame(sw.cut)
@@ -543,6 +540,34 @@ class RerunSink:
         self.event(f"whole-run labels: {int(changed.sum())} of {len(meta)} target rows carry "
                    "another meta than they had online, drawn as thick boxes labelled "
                    "'t → m' (/cameras/*/resolved); `mvtrack track` writes these to tracks.csv")
+
+    def log_final_feet(self, rows: TrackRows, done: range) -> None:
+        """The feet `mvtrack track` writes to tracks.csv (``rows``: smoothed over the run, with
+        their final metas) on ``/cameras/{cam}/feet_final`` for every frame of ``done``: small
+        points in the meta's colour beside the per-frame feet. One columnar send per camera,
+        after the run."""
+        if not len(done):
+            return
+        frames = np.arange(done.start, done.stop)
+        inside = (rows.frame >= done.start) & (rows.frame < done.stop)
+        self._grow_metas(int(rows.meta.max(initial=0)) + 1)
+        for cam in self.spec.cameras:
+            sel = np.flatnonzero(inside & (rows.camera == cam.name))
+            order = sel[np.argsort(rows.frame[sel], kind="stable")]
+            path = paths.camera_layer(cam.name, "feet_final")
+            columns = rr.Points2D.columns(
+                positions=to_viewer(rows.feet[order]), class_ids=rows.meta[order],
+                radii=np.full(len(order), 1.5),
+            ).partition(np.bincount(rows.frame[order] - done.start, minlength=len(frames)))
+            self.rec.log(path, rr.Points2D.from_fields(draw_order=11.5), static=True)
+            self._send_frames(path, frames, columns)
+
+    def _send_frames(self, path: str, frames: np.ndarray, columns: Any) -> None:
+        """Send ``columns`` (partitioned one part per frame of ``frames``) on both timelines."""
+        rr.send_columns(path, indexes=[
+            rr.TimeColumn(paths.FRAME_TIMELINE, sequence=frames),
+            rr.TimeColumn(paths.TIME_TIMELINE, duration=frames / self.spec.fps),
+        ], columns=columns, recording=self.rec)
 
     def log_summary(self, values: Mapping[str, float]) -> None:
         """A run's summary figures (``--watch``), static on ``/metrics/summary``."""
