@@ -48,6 +48,8 @@ def test_front_end_finds_people_and_their_feet(metrics: dict[str, dict[str, Any]
     for cam in metrics["homography"]["cameras"].values():
         assert cam["recall"] >= 0.95 and cam["precision"] >= 0.95, cam
         assert cam["foot_error_px_median"] <= 3.0 and cam["foot_error_px_p90"] <= 7.0, cam
+        assert cam["foot_error_px_median"] < 0.85 * cam["foot_error_px_median_per_frame"], cam
+        assert cam["foot_error_px_median"] < cam["foot_error_px_median_bbox_baseline"], cam
 
 
 def test_pair_geometry_is_learned_from_people_walking(

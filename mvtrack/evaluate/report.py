@@ -95,8 +95,8 @@ def _mask_summary(truth: Truth, results: Path, camera: str) -> Mapping[str, floa
     return dict(total.summary()) | {"frames": len(frames)}
 
 
-def _camera_metrics(truth: Truth, rows: TrackRows, results: Path, camera: str,
-                    cfg: EvalConfig) -> dict[str, Any]:
+def _camera_metrics(truth: Truth, rows: TrackRows, streamed: TrackRows | None, results: Path,
+                    camera: str, cfg: EvalConfig) -> dict[str, Any]:
     t = FrameRows.from_truth(truth.cameras[camera], processed_frames(results))
     mine = rows.of_camera(camera)
     scores: dict[str, Any] = detection_scores(_pred_rows(mine, mine.target), t,
@@ -106,6 +106,12 @@ def _camera_metrics(truth: Truth, rows: TrackRows, results: Path, camera: str,
         cfg.gate_heights, cfg.min_visible)
     scores["foot_error_px_median_bbox_baseline"] = baseline["foot_error_px_median"]
     scores["foot_error_px_p90_bbox_baseline"] = baseline["foot_error_px_p90"]
+    if streamed is not None:  # the feet as made frame by frame, before smoothing over the run
+        made = streamed.of_camera(camera)
+        per_frame = detection_scores(_pred_rows(made, made.target), t, cfg.gate_heights,
+                                     cfg.min_visible)
+        scores["foot_error_px_median_per_frame"] = per_frame["foot_error_px_median"]
+        scores["foot_error_px_p90_per_frame"] = per_frame["foot_error_px_p90"]
     scores["idf1_single_camera"] = idf1(_pred_rows(mine, mine.target), t, cfg.gate_heights,
                                         cfg.min_visible)["idf1"]
     masks = _mask_summary(truth, results, camera)
@@ -125,7 +131,10 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
         raise ClipError(f"{results}/tracks.csv: no camera in common with {truth.root} "
                         f"(results: {sorted(set(rows.camera.tolist()))}, "
                         f"truth: {sorted(truth.cameras)})")
-    per_camera = {c: _camera_metrics(truth, rows, Path(results), c, cfg) for c in cameras}
+    online = Path(results) / "tracks_online.csv"
+    streamed = read_tracks(online) if online.is_file() else None
+    per_camera = {c: _camera_metrics(truth, rows, streamed, Path(results), c, cfg)
+                  for c in cameras}
     metrics: dict[str, Any] = {
         "clip": str(clip),
         "results": str(results),
@@ -135,10 +144,9 @@ def evaluate(clip: Path, results: Path, cfg: EvalConfig = EvalConfig()) -> dict[
                                 processed_frames(results),
                                 cfg.gate_heights, cfg.min_visible),
     }
-    online = Path(results) / "tracks_online.csv"
-    if online.is_file():
+    if streamed is not None:
         metrics["labels_online"] = labels_report(
-            truth, read_tracks(online), Path(results) / "cues_online.csv",
+            truth, streamed, Path(results) / "cues_online.csv",
             processed_frames(results), cfg.gate_heights, cfg.min_visible)
     pairs = pairs_metrics_for_results(Path(clip), Path(results), truth)
     if pairs is not None:
