@@ -135,8 +135,7 @@ def rewrite_tracks(out_dir: Path, rows: TrackRows,
     numbers = np.c_[rows.feet, rows.boxes_xywh, rows.height].tolist()
     tracks = [_track_row(f, c, t, m, tuple(n)) for f, c, t, m, n in zip(
         rows.frame.tolist(), rows.camera.tolist(), rows.target.tolist(), rows.meta.tolist(),
-        numbers,
-        strict=True)]
+        numbers, strict=True)]
     cues = _csv_rows(out_dir / "cues.csv", CUES_HEADER)
     frames = np.array([int(r[0]) for r in cues], np.int64)
     new = cue_meta(frames, np.array([int(r[1]) for r in cues], np.int64))
