@@ -217,6 +217,33 @@ def test_robust_fit_does_not_depend_on_which_sample_won() -> None:
     assert max(medians) < 1.0, medians
 
 
+def test_refinement_on_every_marker_beats_the_inlier_dlt_on_heavy_tailed_feet() -> None:
+    """Feet swing with the gait, so marker errors have a heavy tail (Student t, 3 dof, 2.5 px,
+    in both cameras) and 10 % are wrong people: over 30 draws the Cauchy refinement on every
+    marker halves the p90 error on a grid (6.4 -> 3.2 px) and wins on 29."""
+    H = np.array([[0.9, 0.12, 30], [-0.05, 1.1, 12], [1e-4, 4e-4, 1.0]])
+    grid = np.stack(np.meshgrid(np.arange(0, 320, 16), np.arange(0, 240, 16)), -1)
+    grid = grid.reshape(-1, 2).astype(np.float64)
+    p90 = {0.0: [], 0.5: []}
+    for seed in range(30):
+        rng = np.random.default_rng(seed)
+        a_true = rng.uniform([0, 0], [320, 240], (60, 2))
+        a = a_true + rng.standard_t(3, (60, 2)) * 2.5
+        b = apply_homography(H, a_true) + rng.standard_t(3, (60, 2)) * 2.5
+        wrong = rng.random(60) < 0.1
+        b[wrong] += rng.uniform(30, 80, (wrong.sum(), 2))
+        for scale, out in p90.items():
+            cfg = HomographyConfig(ransac_threshold_px=6.0, refine_scale=scale)
+            est = fit_homography(a, b, cfg, np.random.default_rng(seed))
+            assert isinstance(est, HomographyEstimate)
+            err = np.linalg.norm(apply_homography(est.H_b_from_a, grid)
+                                 - apply_homography(H, grid), axis=1)
+            out.append(np.percentile(err, 90))
+    plain, refined = np.array(p90[0.0]), np.array(p90[0.5])
+    assert refined.mean() < 0.6 * plain.mean(), (refined.mean(), plain.mean())
+    assert (refined < plain).sum() >= 25
+
+
 def test_inliers_from_too_few_target_pairs_are_refused() -> None:
     """Markers of two links only: a wrong H could follow two walks, so no estimate."""
     rng = np.random.default_rng(5)

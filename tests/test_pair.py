@@ -17,7 +17,7 @@ import pytest
 from mvtrack.evaluate.pairs import EVAL_SIDES, fov_segment, line_error_px
 from mvtrack.params import load_params
 from mvtrack.stages.homography import HomographyEstimate, apply_homography
-from mvtrack.stages.markers import Comotion
+from mvtrack.stages.markers import Comotion, Marker, markers_add, markers_init
 from mvtrack.stages.pair import PairConfigs, PairState, pair_init, pair_step, pair_summary
 from mvtrack.stages.targets import CameraTargets
 
@@ -399,6 +399,27 @@ def test_a_homography_that_predicts_people_where_there_are_none_is_dropped(
     else:
         # 3 targets x 2 directions a frame: 40 projections pooled by the 7th frame
         assert dropped_at == -(-cfg.homography.verify_min_expected // 6)
+
+
+@pytest.mark.parametrize("margin, kept", [(0.5, True), (-1.0, False)])
+def test_h_is_judged_only_near_its_markers(margin: float, kept: bool) -> None:
+    """An H 30 px off where people now walk, learned from markers in the far corner of A
+    (x 420-600, y 20-120): there it extrapolates, so the misses say where markers are
+    lacking and the H is kept; judged everywhere (margin < 0) it is dropped as above."""
+    cfg = PairConfigs()
+    cfg = replace(cfg, homography=replace(cfg.homography, verify_hull_margin_heights=margin))
+    H = np.array([[1.0, 0, 230.0], [0, 1, 0], [0, 0, 1]])
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    corner = [(x, y) for x in (420.0, 500.0, 600.0) for y in (20.0, 70.0, 120.0)]
+    store = markers_add(markers_init((640, 480)), [
+        Marker(0, 1, 101, (x, y), (x + 230.0, y), 30.0, 30.0) for x, y in corner], cfg.markers)
+    state = replace(state, markers=store, homography=HomographyEstimate(
+        H, "dlt", 9, np.ones(9, bool), np.zeros(9), 0.0, 0))
+    for f in range(1, 30):
+        state, _ = pair_step(state, *_walkers_seen_twice(f, [4, 5, 6]), cfg, f)
+    assert bool(state.homography) == kept
+    if kept:
+        assert sum(e for e, _, _ in state.checks) == 0
 
 
 def test_after_a_dropped_homography_the_pool_gives_the_true_pairing_at_once() -> None:

@@ -20,6 +20,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
+import cv2
 import numpy as np
 
 from mvtrack.params import FovConfig, HomographyConfig, MarkerConfig, Params
@@ -511,12 +512,34 @@ def _strong(found: Comotion, cfg: MarkerConfig) -> bool:
     return strong >= cfg.comotion_accept_pairs
 
 
+def _near_markers(targets: CameraTargets, hull: np.ndarray | None, margin_heights: float
+                  ) -> np.ndarray:
+    """(N,) bool: each target's feet within ``margin_heights`` of its heights of the markers'
+    convex hull in its camera (every target when ``hull`` is None)."""
+    if hull is None:
+        return np.ones(len(targets), bool)
+    dist = np.array([cv2.pointPolygonTest(hull, (float(x), float(y)), True)
+                     for x, y in targets.feet])  # > 0 inside
+    return dist >= -margin_heights * targets.heights_px if len(dist) else np.zeros(0, bool)
+
+
+def _marker_hulls(markers: MarkerState, cfg: HomographyConfig
+                  ) -> tuple[np.ndarray | None, np.ndarray | None]:
+    """Convex hull (cv2 contour) of the stored markers in each camera, or None (rule off)."""
+    if cfg.verify_hull_margin_heights < 0 or len(markers.cells) < 3:
+        return None, None
+    pts_a, pts_b = marker_points(markers)
+    return (cv2.convexHull(pts_a.astype(np.float32)), cv2.convexHull(pts_b.astype(np.float32)))
+
+
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
-           cfg: HomographyConfig) -> tuple[int, int, tuple[tuple[int, int], ...]]:
-    """(expected, found, missed): targets fully inside their own frame that H projects at least
-    ``_VERIFY_MARGIN_PX`` inside the other one, how many of them have a target there within
-    ``verify_gate_heights`` (symmetric transfer distance, :func:`transfer_costs`), and the
-    (camera index, label) of the others."""
+           cfg: HomographyConfig, hulls: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
+           ) -> tuple[int, int, tuple[tuple[int, int], ...]]:
+    """(expected, found, missed): targets fully inside their own frame, near the markers there
+    (``hulls``, :func:`_near_markers`), that H projects at least ``_VERIFY_MARGIN_PX`` inside
+    the other one, how many of them have a target there within ``verify_gate_heights``
+    (symmetric transfer distance, :func:`transfer_costs`), and the (camera index, label) of
+    the others."""
     if not len(a) and not len(b):
         return 0, 0, ()
     cost, a_in_b, b_in_a = transfer_costs(H_b_from_a, a, b)
@@ -527,7 +550,8 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
         width, height = other.size
         m = _VERIFY_MARGIN_PX
         inside = (~own.touches(0.0).any(axis=1) & (proj[:, 0] > m) & (proj[:, 0] < width - m)
-                  & (proj[:, 1] > m) & (proj[:, 1] < height - m))
+                  & (proj[:, 1] > m) & (proj[:, 1] < height - m)
+                  & _near_markers(own, hulls[side], cfg.verify_hull_margin_heights))
         has = near.min(axis=1) < cfg.verify_gate_heights if near.shape[1] else np.zeros(len(own),
                                                                                         bool)
         expected += int(inside.sum())
@@ -537,14 +561,17 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
 
 
 def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
-            a: CameraTargets, b: CameraTargets, cfg: HomographyConfig
+            a: CameraTargets, b: CameraTargets, markers: MarkerState, cfg: HomographyConfig
             ) -> tuple[tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...], str]:
     """This frame's check of a valid H added to the pooled ones, and why H must be dropped
     ("" while it holds): too few of its projections find a target where it puts them, and
-    the misses come from at least ``verify_min_targets`` targets."""
+    the misses come from at least ``verify_min_targets`` targets. Only targets near the
+    markers are checked: away from them H extrapolates, and a miss there says where markers
+    are lacking, not that H is wrong."""
     if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
         return (), ""
-    checks = (*state.checks, _check(homography.H_b_from_a, a, b, cfg))[-cfg.verify_frames :]
+    check = _check(homography.H_b_from_a, a, b, cfg, _marker_hulls(markers, cfg))
+    checks = (*state.checks, check)[-cfg.verify_frames :]
     expected = sum(e for e, _, _ in checks)
     found = sum(f for _, f, _ in checks)
     missing = {key for _, _, missed in checks for key in missed}
@@ -624,7 +651,7 @@ def pair_step(
     homography, attempt = (state.homography, None) if prior else _maybe_fit(
         state, markers, cfg.homography, frame)
     fitted = attempt is not None
-    checks, dropped = _verify(state, homography, a, b, cfg.homography)
+    checks, dropped = _verify(state, homography, a, b, markers, cfg.homography)
     refuted = state.refuted
     if dropped:  # its markers would fit it again: learning starts over, without its links
         homography = HomographyFailure(dropped, len(markers.cells), frame)
