@@ -3,8 +3,8 @@
 ``x_b ~ H_b_from_a @ x_a`` for feet points on the ground. :func:`fit_homography` applies the
 degeneracy rule, then either the plain normalized DLT (``cfg.method == "dlt"``) or RANSAC on the
 symmetric transfer error followed by a normalized DLT on the inliers, refined on every marker
-under a robust loss (``"robust"``). An estimate
-that cannot be made is a falsy :class:`HomographyFailure` with a reason, never an exception.
+under a robust loss (``"robust"``). An estimate that cannot be made is a falsy
+:class:`HomographyFailure` with a reason, never an exception.
 
     est = fit_homography(pts_a, pts_b, cfg)
     if est:
@@ -450,12 +450,13 @@ def fit_homography(
     ``cfg.method`` "dlt": normalized DLT on all markers. "robust": RANSAC (``rng``, default
     seeded from ``cfg.ransac_seed``), then normalized DLT on the consensus set, refined to a
     fixed point (:func:`_local_optimization`), then on every marker under a Cauchy loss
-    (:func:`_refine`, ``cfg.refine_scale``; kept unless it folds the inliers). The
-    degeneracy rule is applied to the markers and again to the inliers. ``groups`` (N,) int:
-    which target pair (link) dropped each marker; the inliers must then come from at least
-    ``cfg.min_marker_groups`` of them (the markers of one or two straight walks can be fitted
-    by a wrong H). ``heights``: see :func:`degeneracy_reason`. Returns a falsy
-    :class:`HomographyFailure` when no trustworthy H exists.
+    (:func:`_refine`, ``cfg.refine_scale``; kept unless it folds the inliers or keeps
+    fewer than four within the threshold). The degeneracy rule is applied to the markers and
+    again to the inliers. ``groups`` (N,) int: which target pair (link) dropped each marker;
+    the inliers must then come from at least ``cfg.min_marker_groups`` of them (the markers
+    of one or two straight walks can be fitted by a wrong H). ``heights``: see
+    :func:`degeneracy_reason`. Returns a falsy :class:`HomographyFailure` when no trustworthy
+    H exists.
     """
     pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
     if len(pts_a) != len(pts_b):
@@ -482,12 +483,13 @@ def fit_homography(
     problem = _matrix_problem(H, pts_a[inliers]) or _groups_problem(groups, inliers, cfg)
     if problem:
         return HomographyFailure(problem, n)
+    errors = transfer_errors(H, pts_a, pts_b)
     if cfg.method == "robust" and cfg.refine_scale > 0:
         refined = _refine(H, pts_a, pts_b, cfg.refine_scale * cfg.ransac_threshold_px)
-        if not _matrix_problem(refined, pts_a[inliers]):
-            H = refined
-            inliers = transfer_errors(H, pts_a, pts_b) < cfg.ransac_threshold_px
-    errors = transfer_errors(H, pts_a, pts_b)
+        refined_errors = transfer_errors(refined, pts_a, pts_b)
+        refined_inliers = refined_errors < cfg.ransac_threshold_px
+        if refined_inliers.sum() >= 4 and not _matrix_problem(refined, pts_a[inliers]):
+            H, errors, inliers = refined, refined_errors, refined_inliers
     return HomographyEstimate(
         H_b_from_a=H,
         method=cfg.method,

@@ -533,7 +533,7 @@ def _marker_hulls(markers: MarkerState, cfg: HomographyConfig
 
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
-           cfg: HomographyConfig, hulls: tuple[np.ndarray | None, np.ndarray | None] = (None, None),
+           cfg: HomographyConfig, hulls: tuple[np.ndarray | None, np.ndarray | None],
            ) -> tuple[int, int, tuple[tuple[int, int], ...]]:
     """(expected, found, missed): targets fully inside their own frame, near the markers there
     (``hulls``, :func:`_near_markers`), that H projects at least ``_VERIFY_MARGIN_PX`` inside
