@@ -133,11 +133,11 @@ def test_stacked_fragment_targets_reunite_when_their_blobs_join() -> None:
 
 
 @pytest.mark.parametrize("part_max_height_frac", [0.5, 0.0])
-def test_a_leg_that_came_apart_rejoins_its_person(part_max_height_frac: float) -> None:
-    """A striding person (torso and back leg one blob) whose front leg comes apart for a frame
-    gets a second label; when the leg joins again it is a part of its person (inside the box,
-    much shorter, the same feet row) and retires, instead of being divided off as a target of
-    its own for as long as the two touch."""
+def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: float) -> None:
+    """A striding person (torso and back leg one blob) whose front leg comes apart for a frame:
+    the leg is a part of its person (inside the box, much shorter, the same feet row) and keeps
+    the person's label; with leg parts off it becomes a split child, then a merge that keeps
+    both labels for as long as the two touch."""
     person = [(20, 10, 35, 50), (20, 51, 24, 72)]  # torso, back leg
     frames = [
         blobs(*person, (30, 51, 34, 72)),
@@ -150,12 +150,36 @@ def test_a_leg_that_came_apart_rejoins_its_person(part_max_height_frac: float) -
     for mvo in frames:
         state, r = track_masks(state, mvo, None, cfg)
         res.append(r)
-    assert res[1].labels.tolist() == [1, 2] and res[1].splits == ((1, (2,)),)
     if part_max_height_frac:
-        assert res[2].reunions == ((1, (2,)),) and res[2].retirements == (2,)
-        assert res[3].labels.tolist() == [1]
+        assert all(r.labels.tolist() == [1] and not r.splits for r in res)
+        assert not any(r.births for r in res[1:])
+        img = res[1].label_image
+        assert img is not None and img[60, 32] == img[60, 22] == 1
     else:
+        assert res[1].labels.tolist() == [1, 2] and res[1].splits == ((1, (2,)),)
         assert res[2].merges == ((1, (1, 2)),) and res[3].labels.tolist() == [1, 2]
+
+
+@pytest.mark.parametrize("part_reach_frac", [0.25, 0.0])
+def test_a_trailing_leg_beside_its_person_rejoins_it(part_reach_frac: float) -> None:
+    """A back leg seen apart from its person from the start (its own label), beside the
+    person's box and reaching a little lower: when it touches the person it is a part of them
+    (within the box grown by part_reach_frac of the person's height) and retires; without the
+    reach it is not inside the box and is divided off as a target of its own."""
+    person = [(20, 10, 35, 50), (28, 51, 34, 72)]  # torso, front leg
+    leg = (8, 55, 14, 74)
+    frames = [blobs(*person, leg), blobs(*person, leg, (14, 50, 20, 55)), blobs(*person, leg)]
+    cfg = replace(CFG, part_reach_frac=part_reach_frac)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    assert res[0].labels.tolist() == [1, 2]
+    if part_reach_frac:
+        assert res[1].reunions == ((1, (2,)),) and res[1].retirements == (2,)
+        assert res[1].labels.tolist() == [1]
+    else:
+        assert res[1].merges == ((1, (1, 2)),) and res[1].labels.tolist() == [1, 2]
 
 
 def test_split_off_fragment_stays_with_its_parent() -> None:

@@ -759,8 +759,7 @@ def stacked_boxes(
 
 
 def box_intersections(box_xywh: np.ndarray) -> np.ndarray:
-    """(K, K) float64: the area each pair of boxes (K, 4) [x, y, w, h] shares (0 apart).
-    Shared with the tracker, which tells a leg from its person by it."""
+    """(K, K) float64: the area each pair of boxes (K, 4) [x, y, w, h] shares (0 apart)."""
     x0, y0, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
     over_x = np.minimum(x0[:, None] + w[:, None], x0 + w) - np.maximum(x0[:, None], x0)
     over_y = np.minimum(y0[:, None] + h[:, None], y0 + h) - np.maximum(y0[:, None], y0)

@@ -61,7 +61,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import find_peaks
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import SizeModel, box_intersections, link_groups, stacked_boxes
+from mvtrack.stages.background import SizeModel, link_groups, stacked_boxes
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -499,12 +499,17 @@ def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
 
 def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     """(K, K) bool, [i, j]: box i is a lower part of box j (a leg or the feet of that person):
-    at least ``part_contained_frac`` of its area inside j, under ``part_max_height_frac`` of
-    j's height, its bottom within ``part_bottom_frac`` of j's height from j's bottom. A person
-    behind another is contained too, but stands further back: the feet are higher up."""
-    w, h, bottom = box_xywh[:, 2], box_xywh[:, 3], box_xywh[:, 1] + box_xywh[:, 3]
-    area = np.maximum(w * h, 1e-9)[:, None]
-    inside = box_intersections(box_xywh) >= cfg.part_contained_frac * area
+    at least ``part_contained_frac`` of its area inside j's box grown by ``part_reach_frac`` of
+    j's height to the left, right and below (a trailing leg steps out of the rest of its
+    person), under ``part_max_height_frac`` of j's height, its bottom within
+    ``part_bottom_frac`` of j's height from j's bottom. A person behind another is contained
+    too, but stands further back: the feet are higher up."""
+    x, y, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
+    bottom, reach = y + h, cfg.part_reach_frac * h
+    over_x = np.minimum(x[:, None] + w[:, None], x + w + reach) - np.maximum(x[:, None], x - reach)
+    over_y = np.minimum(bottom[:, None], bottom + reach) - np.maximum(y[:, None], y)
+    inside = (np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
+              >= cfg.part_contained_frac * np.maximum(w * h, 1e-9)[:, None])
     part = (
         inside
         & (h[:, None] < cfg.part_max_height_frac * h)
@@ -569,7 +574,8 @@ def _parent_fragment(
     ctx: _Inputs,
 ) -> int:
     """For a blob with no inheritor: the index of its split parent's continuation blob when the
-    two are stacked like parts of one person (the blob is a fragment of the parent), else -1."""
+    two are parts of one person (stacked, or one a leg of the other: the blob is a fragment of
+    the parent), else -1."""
     parent = plan.split_parent[b]
     if parent < 0 or not ctx.cfg.reunite_fragments:
         return -1
@@ -577,7 +583,8 @@ def _parent_fragment(
         if heirs == (parent,):
             window, other = slices[int(blob_ids[b])], slices[int(blob_ids[c])]
             pair = np.stack([_blob_box(window), _blob_box(other)])
-            return c if bool(_stacked(pair, ctx)[0, 1]) else -1
+            legs = _legs_of(pair, ctx.cfg)
+            return c if bool(_stacked(pair, ctx)[0, 1] or legs[0, 1] or legs[1, 0]) else -1
     return -1
 
 
