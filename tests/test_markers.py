@@ -184,26 +184,36 @@ def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
     found = comotion_search(_before(pool, 50), cfg, _fit, transfer_errors,
                             np.random.default_rng(0))
     assert found is not None and found.since == 45 and len(found.markers) == 40
-    assert comotion_confirm(_before(pool, 50), found, cfg, transfer_errors) == ("waiting", found)
-    verdict, confirmed = comotion_confirm(pool, found, cfg, transfer_errors)
+    assert comotion_confirm(_before(pool, 50), found, cfg, transfer_errors, 49) == (
+        "waiting", found)
+    verdict, confirmed = comotion_confirm(pool, found, cfg, transfer_errors, 95)
     assert verdict == "confirmed" and confirmed is not None
     assert confirmed.links == found.links and confirmed.since == 95
     assert len(confirmed.markers) == 80  # the held-out candidates join the hypothesis's own
     # A wrong H (30 px off) that its pairs followed by chance until frame 45: rejected, since
-    # its own pairs' later candidates are all outliers (gate max(4, 0.3 * 30) = 9 px).
+    # its own pairs' later candidates are all clear misses (gate max(4, 0.3 * 30) = 9 px,
+    # refuted beyond 2.5 gates).
     wrong = Comotion(np.array([[1.0, 0, 230], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
                      45)
-    assert comotion_confirm(pool, wrong, cfg, transfer_errors) == ("rejected", None)
-    # With no own evidence and no confirmation, it waits comotion_confirm_frames, then is
-    # accepted as it was (verification judges it from there), or dropped when so configured.
+    assert comotion_confirm(pool, wrong, cfg, transfer_errors, 95) == ("rejected", None)
+    # 15 px off: outliers, but near enough for a loose early fit; it is not confirmed either.
+    loose = Comotion(np.array([[1.0, 0, 215], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
+                     45)
+    assert comotion_confirm(pool, loose, cfg, transfer_errors, 95) == ("waiting", loose)
+    tight = MarkerConfig(comotion_refute_gates=1.0)
+    assert comotion_confirm(pool, loose, tight, transfer_errors, 95) == ("rejected", None)
+    # With no own evidence and no confirmation, it waits comotion_confirm_frames after it was
+    # found (whether or not new candidates came), then is "unrefuted": accepted as it was
+    # (verification judges it from there), or dropped when so configured.
     stale = Comotion(wrong.H_b_from_a, ((7, 107),), (), 0)
-    assert comotion_confirm(pool, stale, cfg, transfer_errors)[0] == "waiting"
+    assert comotion_confirm(pool, stale, cfg, transfer_errors, 95)[0] == "waiting"
+    assert comotion_confirm(pool, stale, cfg, transfer_errors, 101) == ("unrefuted", stale)
     short = MarkerConfig(comotion_confirm_frames=50)
-    assert comotion_confirm(pool, stale, short, transfer_errors) == ("confirmed", stale)
+    assert comotion_confirm(pool, stale, short, transfer_errors, 95) == ("unrefuted", stale)
     strict = MarkerConfig(comotion_confirm_frames=50, comotion_accept_unrefuted=False)
-    assert comotion_confirm(pool, stale, strict, transfer_errors) == ("rejected", None)
+    assert comotion_confirm(pool, stale, strict, transfer_errors, 95) == ("rejected", None)
     off = MarkerConfig(comotion_confirm_pairs=0)
-    assert comotion_confirm(pool, wrong, off, transfer_errors) == ("confirmed", wrong)
+    assert comotion_confirm(pool, wrong, off, transfer_errors, 95) == ("confirmed", wrong)
 
 
 def test_markers_add_keeps_one_per_cell() -> None:

@@ -351,6 +351,31 @@ def test_a_held_swap_does_not_block_the_true_pairing() -> None:
     assert linked_at is not None and linked_at <= 75
 
 
+def test_of_rivals_left_unrefuted_the_best_supported_is_accepted() -> None:
+    """Two hypotheses held since frame 0 whose people left (nothing confirms or refutes them):
+    once ``comotion_confirm_frames`` passed, the one more candidates followed is accepted and
+    its markers enter the store, whichever was found first."""
+    cfg = PairConfigs()
+
+    def rival(dx: float, a_label: int, n: int) -> Comotion:
+        H = np.array([[1.0, 0, dx], [0, 1, 0], [0, 0, 1]])
+        ms = tuple(Marker(5 * i, a_label, a_label + 100, (25.0 * i + 10, 20.0 * i + 10),
+                          (25.0 * i + 10 + dx, 20.0 * i + 10), 30.0, 30.0) for i in range(n))
+        return Comotion(H, ((a_label, a_label + 100),), ms, since=0)
+
+    weak, strong = rival(300.0, 1, 4), rival(400.0, 2, 12)
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    state = replace(state, hypotheses=(weak, strong))
+    every = cfg.markers.comotion_every_frames
+    for f in range(1, 2 * every * 3):
+        a, b = _walkers_seen_twice(f, [4, 5])  # two walkers: the pool grows, fits neither rival
+        state, _ = pair_step(state, a, b, cfg, f)
+        if f <= cfg.markers.comotion_confirm_frames:
+            assert state.hypotheses == (weak, strong), f
+    assert state.hypotheses == ()
+    assert sorted(m.a_label for m in state.markers.cells.values()) == [2] * 12
+
+
 @pytest.mark.parametrize("accept_pairs", [4, 0])
 def test_a_hypothesis_four_pairs_follow_needs_no_held_out_check(accept_pairs: int) -> None:
     """Four people walking through both views: the first co-motion search (frame 25, five

@@ -528,17 +528,20 @@ def comotion_confirm(
     hypothesis: Comotion,
     cfg: MarkerConfig,
     errors: Callable[[np.ndarray, np.ndarray, np.ndarray], np.ndarray],
+    frame: int,
 ) -> tuple[str, Comotion | None]:
-    """The held-out check of a hypothesis on the pool's candidates newer than
+    """The held-out check, at ``frame``, of a hypothesis on the pool's candidates newer than
     ``hypothesis.since`` (never used to find it). Returns (verdict, hypothesis):
 
     "confirmed", the hypothesis extended by the confirming pairs and their inliers, when at
     least ``comotion_confirm_pairs`` one-to-one target pairs follow it again
     (``comotion_confirm_support`` inliers each, mostly inliers); "rejected", None when one of
-    its own pairs has that many new candidates but mostly outliers (it stopped explaining its
-    own evidence); once ``comotion_confirm_frames`` passed with neither, "confirmed" with the
-    hypothesis unchanged if ``comotion_accept_unrefuted``, else "rejected"; before that,
-    "waiting", the hypothesis unchanged.
+    its own pairs has that many new candidates but mostly beyond ``comotion_refute_gates``
+    inlier gates (it stopped explaining its own evidence; a fit to a few people's early paths
+    extrapolates loosely, so only a clear miss refutes); once ``comotion_confirm_frames``
+    passed since it was found with neither, "unrefuted" with the hypothesis unchanged if
+    ``comotion_accept_unrefuted``, else "rejected"; before that, "waiting", the hypothesis
+    unchanged.
     """
     if cfg.comotion_confirm_pairs == 0:
         return "confirmed", hypothesis
@@ -552,17 +555,18 @@ def comotion_confirm(
             links = tuple(sorted(set(hypothesis.links) | set(chosen)))
             return "confirmed", Comotion(hypothesis.H_b_from_a, links,
                                          hypothesis.markers + later.markers, later.since)
-        inlier = errors(hypothesis.H_b_from_a, pool.x_a, pool.x_b) < pool.gates_px(cfg)
+        near = (errors(hypothesis.H_b_from_a, pool.x_a, pool.x_b)
+                < cfg.comotion_refute_gates * pool.gates_px(cfg))
         for a_label, b_label in hypothesis.links:
             own = new & (pool.labels[:, 0] == a_label) & (pool.labels[:, 1] == b_label)
             n_own = int(own.sum())
             if n_own >= cfg.comotion_confirm_support and (
-                    (inlier & own).sum() < cfg.comotion_min_frac * n_own):
+                    (near & own).sum() < cfg.comotion_min_frac * n_own):
                 return "rejected", None
-        if int(pool.frame.max()) - hypothesis.since > cfg.comotion_confirm_frames:
-            if cfg.comotion_accept_unrefuted:
-                return "confirmed", hypothesis
-            return "rejected", None
+    if frame - hypothesis.since > cfg.comotion_confirm_frames:
+        if cfg.comotion_accept_unrefuted:
+            return "unrefuted", hypothesis
+        return "rejected", None
     return "waiting", hypothesis
 
 

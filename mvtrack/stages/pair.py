@@ -483,16 +483,20 @@ def _bootstrap(
 
 def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs,
             frame: int) -> tuple[Comotion | None, list[Comotion]]:
-    """One bootstrap round: the first held hypothesis the pool confirms, else a new search.
-    Returns (accepted or None, hypotheses still held)."""
+    """One bootstrap round: the first held hypothesis the pool confirms, else the
+    best-supported (most inlier candidates) of those left unrefuted long enough, else a new
+    search. Returns (accepted or None, hypotheses still held)."""
     mcfg = cfg.markers
     held: list[Comotion] = []
+    unrefuted: list[Comotion] = []
     for hypothesis in hypotheses:
-        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors)
+        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors, frame)
         if verdict == "confirmed":
             return checked, held
         if checked is not None:
-            held.append(checked)
+            (unrefuted if verdict == "unrefuted" else held).append(checked)
+    if unrefuted:  # rivals found from the same people: more support is the better pairing
+        return max(unrefuted, key=lambda h: len(h.markers)), held
     rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
     found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
     if found is None or mcfg.comotion_confirm_pairs == 0 or _strong(found, mcfg):
