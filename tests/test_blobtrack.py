@@ -160,22 +160,28 @@ def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: floa
         assert res[2].merges == ((1, (1, 2)),) and res[3].labels.tolist() == [1, 2]
 
 
-@pytest.mark.parametrize("part_reach_frac", [0.25, 0.0])
-def test_a_trailing_leg_beside_its_person_rejoins_it(part_reach_frac: float) -> None:
+@pytest.mark.parametrize(("part_reach_frac", "person_px", "absorbed"),
+                         [(0.25, None, True), (0.25, 60.0, True), (0.25, 30.0, False),
+                          (0.0, None, False)])
+def test_a_trailing_leg_beside_its_person_rejoins_it(
+        part_reach_frac: float, person_px: float | None, absorbed: bool) -> None:
     """A back leg seen apart from its person from the start (its own label), beside the
     person's box and reaching a little lower: when it touches the person it is a part of them
     (within the box grown by part_reach_frac of the person's height) and retires; without the
-    reach it is not inside the box and is divided off as a target of its own."""
+    reach it is not inside the box and is divided off as a target of its own. Where the size
+    line says people are 30 px tall there, the 20 px "leg" is a whole person beside a stack
+    of two (the 63 px box) and keeps its label."""
     person = [(20, 10, 35, 50), (28, 51, 34, 72)]  # torso, front leg
     leg = (8, 55, 14, 74)
     frames = [blobs(*person, leg), blobs(*person, leg, (14, 50, 20, 55)), blobs(*person, leg)]
     cfg = replace(CFG, part_reach_frac=part_reach_frac)
+    sizes = None if person_px is None else SizeModel(line=(0.0, person_px))
     state, res = tracker_init(), []
     for mvo in frames:
-        state, r = track_masks(state, mvo, None, cfg)
+        state, r = track_masks(state, mvo, None, cfg, sizes)
         res.append(r)
     assert res[0].labels.tolist() == [1, 2]
-    if part_reach_frac:
+    if absorbed:
         assert res[1].reunions == ((1, (2,)),) and res[1].retirements == (2,)
         assert res[1].labels.tolist() == [1]
     else:

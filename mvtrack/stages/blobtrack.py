@@ -497,13 +497,15 @@ def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     return stacked & ~too_tall
 
 
-def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     """(K, K) bool, [i, j]: box i is a lower part of box j (a leg or the feet of that person):
     at least ``part_contained_frac`` of its area inside j's box grown by ``part_reach_frac`` of
     j's height to the left, right and below (a trailing leg steps out of the rest of its
-    person), under ``part_max_height_frac`` of j's height, its bottom within
-    ``part_bottom_frac`` of j's height from j's bottom. A person behind another is contained
-    too, but stands further back: the feet are higher up."""
+    person), under ``part_max_height_frac`` of j's height and of the height the camera's size
+    line predicts at its bottom (j may be people stacked one behind the other), its bottom
+    within ``part_bottom_frac`` of j's height from j's bottom. A person behind another is
+    contained too, but stands further back: the feet are higher up."""
+    cfg = ctx.cfg
     x, y, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
     bottom, reach = y + h, cfg.part_reach_frac * h
     over_x = np.minimum(x[:, None] + w[:, None], x + w + reach) - np.maximum(x[:, None], x - reach)
@@ -515,6 +517,9 @@ def _legs_of(box_xywh: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
         & (h[:, None] < cfg.part_max_height_frac * h)
         & (np.abs(bottom[:, None] - bottom) <= cfg.part_bottom_frac * h)
     )
+    person = None if ctx.size_model is None else ctx.size_model.height_at(bottom)
+    if person is not None:
+        part &= ~((person > 0) & (h >= cfg.part_max_height_frac * person))[:, None]
     np.fill_diagonal(part, False)
     return part
 
@@ -542,7 +547,7 @@ def _reunite(
     if not ctx.cfg.reunite_fragments:
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
-    legs = _legs_of(boxes, ctx.cfg)
+    legs = _legs_of(boxes, ctx)
     linked = _stacked(boxes, ctx) | legs | legs.T
     n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
@@ -583,7 +588,7 @@ def _parent_fragment(
         if heirs == (parent,):
             window, other = slices[int(blob_ids[b])], slices[int(blob_ids[c])]
             pair = np.stack([_blob_box(window), _blob_box(other)])
-            legs = _legs_of(pair, ctx.cfg)
+            legs = _legs_of(pair, ctx)
             return c if bool(_stacked(pair, ctx)[0, 1] or legs[0, 1] or legs[1, 0]) else -1
     return -1
 
