@@ -426,13 +426,21 @@ def test_a_homography_that_predicts_people_where_there_are_none_is_dropped(
         assert dropped_at == -(-cfg.homography.verify_min_expected // 6)
 
 
-@pytest.mark.parametrize("margin, kept", [(0.5, True), (-1.0, False)])
-def test_h_is_judged_only_near_its_markers(margin: float, kept: bool) -> None:
+@pytest.mark.parametrize(("margin", "anywhere", "decoy", "kept"), [
+    (0.5, 0.0, False, True), (-1.0, 0.0, False, False),
+    (0.5, 0.1, False, False), (0.5, 0.1, True, True), (-1.0, 0.0, True, False)])
+def test_h_is_judged_only_near_its_markers(margin: float, anywhere: float, decoy: bool,
+                                           kept: bool) -> None:
     """An H 30 px off where people now walk, learned from markers in the far corner of A
     (x 420-600, y 20-120): there it extrapolates, so the misses say where markers are
-    lacking and the H is kept; judged everywhere (margin < 0) it is dropped as above."""
+    lacking and the H is kept; judged everywhere (margin < 0) it is dropped as above. Still,
+    an H under which almost nobody anywhere finds a partner (under
+    ``verify_anywhere_min_found_frac``) links nobody, so no marker would ever correct it: it
+    is dropped, unless some do (a decoy in B where H sends one A walker: 2 of 9 projections
+    found, too few for the 0.3 of the rule near markers, enough for 0.1 anywhere)."""
     cfg = PairConfigs()
-    cfg = replace(cfg, homography=replace(cfg.homography, verify_hull_margin_heights=margin))
+    cfg = replace(cfg, homography=replace(cfg.homography, verify_hull_margin_heights=margin,
+                                          verify_anywhere_min_found_frac=anywhere))
     H = np.array([[1.0, 0, 230.0], [0, 1, 0], [0, 0, 1]])
     state = pair_init(("a", "b"), ((640, 480), (640, 480)))
     corner = [(x, y) for x in (420.0, 500.0, 600.0) for y in (20.0, 70.0, 120.0)]
@@ -441,9 +449,14 @@ def test_h_is_judged_only_near_its_markers(margin: float, kept: bool) -> None:
     state = replace(state, markers=store, homography=HomographyEstimate(
         H, "dlt", 9, np.ones(9, bool), np.zeros(9), 0.0, 0))
     for f in range(1, 30):
-        state, _ = pair_step(state, *_walkers_seen_twice(f, [4, 5, 6]), cfg, f)
+        a, b = _walkers_seen_twice(f, [4, 5, 6, 7])
+        if decoy:  # a B target where H puts A's walker 7
+            b = CameraTargets(np.r_[b.labels, 999], np.r_[b.feet, a.feet[3:] + [230.0, 0.0]],
+                              np.r_[b.heights_px, 30.0], np.r_[b.boxes_xywh, a.boxes_xywh[3:]
+                                                                + [230.0, 0, 0, 0]], b.size)
+        state, _ = pair_step(state, a, b, cfg, f)
     assert bool(state.homography) == kept
-    if kept:
+    if kept and not decoy:
         assert sum(e for e, _, _ in state.checks) == 0
 
 

@@ -63,6 +63,8 @@ __all__ = [
 ]
 
 SlotKey = tuple[int, str]
+Check = tuple[int, int, tuple[tuple[int, int], ...]]
+"""One frame's verification of H: (projections expected, found, (camera index, label) missed)."""
 """(index of the camera the line is seen in: 0 = A, 1 = B; side of the other camera)."""
 
 _MAX_HYPOTHESES = 3  # co-motion hypotheses held side by side awaiting held-out evidence
@@ -159,6 +161,7 @@ class PairState:
     checks:         per frame with a valid H (the last ``verify_frames``): (targets it projected
                     well inside the other camera, how many of them had a target there, the
                     (camera index, label) of those that had none)
+    checks_anywhere: the same for targets anywhere (not only near the markers)
     """
 
     names: tuple[str, str]
@@ -178,7 +181,8 @@ class PairState:
     candidates: Candidates = field(default_factory=Candidates.empty)
     hypotheses: tuple[Comotion, ...] = ()
     refuted: frozenset[tuple[int, int]] = frozenset()
-    checks: tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...] = ()
+    checks: tuple[Check, ...] = ()
+    checks_anywhere: tuple[Check, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -564,27 +568,43 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
     return expected, found, tuple(missed)
 
 
-def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
-            a: CameraTargets, b: CameraTargets, markers: MarkerState, cfg: HomographyConfig
-            ) -> tuple[tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...], str]:
-    """This frame's check of a valid H added to the pooled ones, and why H must be dropped
-    ("" while it holds): too few of its projections find a target where it puts them, and
-    the misses come from at least ``verify_min_targets`` targets. Only targets near the
-    markers are checked: away from them H extrapolates, and a miss there says where markers
-    are lacking, not that H is wrong."""
-    if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
-        return (), ""
-    check = _check(homography.H_b_from_a, a, b, cfg, _marker_hulls(markers, cfg))
-    checks = (*state.checks, check)[-cfg.verify_frames :]
+def _missing(checks: tuple[Check, ...], min_frac: float, cfg: HomographyConfig) -> str:
+    """Why ``checks`` condemn H ("" when they do not): at least ``verify_min_expected``
+    projections, under ``min_frac`` of them found, misses from ``verify_min_targets`` targets."""
     expected = sum(e for e, _, _ in checks)
     found = sum(f for _, f, _ in checks)
     missing = {key for _, _, missed in checks for key in missed}
-    if (expected >= cfg.verify_min_expected and found < cfg.verify_min_found_frac * expected
+    if (expected >= cfg.verify_min_expected and found < min_frac * expected
             and len(missing) >= cfg.verify_min_targets):
-        return (), (f"dropped: over {len(checks)} frames H put {expected} targets inside the "
-                    f"other camera and {found} had a target there ({len(missing)} targets "
-                    f"missed)")
-    return checks, ""
+        return (f"over {len(checks)} frames H put {expected} targets inside the other camera "
+                f"and {found} had a target there ({len(missing)} targets missed)")
+    return ""
+
+
+def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
+            a: CameraTargets, b: CameraTargets, markers: MarkerState, cfg: HomographyConfig
+            ) -> tuple[tuple[Check, ...], tuple[Check, ...], str]:
+    """This frame's checks of a valid H added to the pooled ones (near the markers, and
+    anywhere), and why H must be dropped ("" while it holds): too few of its projections
+    near the markers find a target where it puts them (``verify_min_found_frac``; away from
+    the markers H extrapolates, and a miss there says where markers are lacking, not that H
+    is wrong), or almost none anywhere (``verify_anywhere_min_found_frac``: an H right
+    only where its few markers are links nobody elsewhere, so no new marker ever corrects
+    it)."""
+    if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
+        return (), (), ""
+    H = homography.H_b_from_a
+    checks = (*state.checks, _check(H, a, b, cfg, _marker_hulls(markers, cfg)))
+    checks = checks[-cfg.verify_frames :]
+    anywhere: tuple[Check, ...] = ()
+    if cfg.verify_anywhere_min_found_frac > 0:
+        anywhere = (*state.checks_anywhere, _check(H, a, b, cfg, (None, None)))
+        anywhere = anywhere[-cfg.verify_frames :]
+    why = (_missing(checks, cfg.verify_min_found_frac, cfg)
+           or _missing(anywhere, cfg.verify_anywhere_min_found_frac, cfg))
+    if why:
+        return (), (), f"dropped: {why}"
+    return checks, anywhere, ""
 
 
 def _maybe_fit(
@@ -655,7 +675,7 @@ def pair_step(
     homography, attempt = (state.homography, None) if prior else _maybe_fit(
         state, markers, cfg.homography, frame)
     fitted = attempt is not None
-    checks, dropped = _verify(state, homography, a, b, markers, cfg.homography)
+    checks, anywhere, dropped = _verify(state, homography, a, b, markers, cfg.homography)
     refuted = state.refuted
     if dropped:  # its markers would fit it again: learning starts over, without its links
         homography = HomographyFailure(dropped, len(markers.cells), frame)
@@ -688,6 +708,7 @@ def pair_step(
         first_valid=first_valid,
         refuted=refuted,
         checks=checks,
+        checks_anywhere=anywhere,
     )
     result = PairResult(
         frame=frame,
