@@ -63,9 +63,9 @@ __all__ = [
 ]
 
 SlotKey = tuple[int, str]
+"""(index of the camera the line is seen in: 0 = A, 1 = B; side of the other camera)."""
 Check = tuple[int, int, tuple[tuple[int, int], ...]]
 """One frame's verification of H: (projections expected, found, (camera index, label) missed)."""
-"""(index of the camera the line is seen in: 0 = A, 1 = B; side of the other camera)."""
 
 _MAX_HYPOTHESES = 3  # co-motion hypotheses held side by side awaiting held-out evidence
 _VERIFY_MARGIN_PX = 5.0  # verification: projections this far inside the other frame count
@@ -588,9 +588,8 @@ def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure
     anywhere), and why H must be dropped ("" while it holds): too few of its projections
     near the markers find a target where it puts them (``verify_min_found_frac``; away from
     the markers H extrapolates, and a miss there says where markers are lacking, not that H
-    is wrong), or almost none anywhere (``verify_anywhere_min_found_frac``: an H right
-    only where its few markers are links nobody elsewhere, so no new marker ever corrects
-    it)."""
+    is wrong), or almost none anywhere (``verify_anywhere_min_found_frac``: an H right only
+    near its few markers links nobody elsewhere, so no new marker would ever correct it)."""
     if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
         return (), (), ""
     H = homography.H_b_from_a
