@@ -542,30 +542,37 @@ def _marker_hulls(markers: MarkerState, cfg: HomographyConfig
 
 def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
            cfg: HomographyConfig, hulls: tuple[np.ndarray | None, np.ndarray | None],
-           ) -> tuple[int, int, tuple[tuple[int, int], ...]]:
-    """(expected, found, missed): targets fully inside their own frame, near the markers there
-    (``hulls``, :func:`_near_markers`), that H projects at least ``_VERIFY_MARGIN_PX`` inside
+           ) -> tuple[Check, Check]:
+    """This frame's checks of H near the markers and anywhere, each (expected, found, missed):
+    targets fully inside their own frame (and, for the first, near the markers there:
+    ``hulls``, :func:`_near_markers`) that H projects at least ``_VERIFY_MARGIN_PX`` inside
     the other one, how many of them have a target there within ``verify_gate_heights``
     (symmetric transfer distance, :func:`transfer_costs`), and the (camera index, label) of
     the others."""
     if not len(a) and not len(b):
-        return 0, 0, ()
+        return (0, 0, ()), (0, 0, ())
     cost, a_in_b, b_in_a = transfer_costs(H_b_from_a, a, b)
-    expected = found = 0
-    missed: list[tuple[int, int]] = []
+    anywhere, marked, has = [], [], []
     for side, (own, proj, other, near) in enumerate(
             ((a, a_in_b, b, cost), (b, b_in_a, a, cost.T))):
         width, height = other.size
         m = _VERIFY_MARGIN_PX
         inside = (~own.touches(0.0).any(axis=1) & (proj[:, 0] > m) & (proj[:, 0] < width - m)
-                  & (proj[:, 1] > m) & (proj[:, 1] < height - m)
-                  & _near_markers(own, hulls[side], cfg.verify_hull_margin_heights))
-        has = near.min(axis=1) < cfg.verify_gate_heights if near.shape[1] else np.zeros(len(own),
-                                                                                        bool)
-        expected += int(inside.sum())
-        found += int((inside & has).sum())
-        missed += [(side, int(label)) for label in own.labels[inside & ~has].tolist()]
-    return expected, found, tuple(missed)
+                  & (proj[:, 1] > m) & (proj[:, 1] < height - m))
+        anywhere.append(inside)
+        marked.append(inside & _near_markers(own, hulls[side], cfg.verify_hull_margin_heights))
+        has.append(near.min(axis=1) < cfg.verify_gate_heights if near.shape[1]
+                   else np.zeros(len(own), bool))
+    camera = np.repeat([0, 1], [len(a), len(b)])
+    labels = np.concatenate([a.labels, b.labels])
+    found = np.concatenate(has)
+
+    def tally(inside: np.ndarray) -> Check:
+        missed = inside & ~found
+        return (int(inside.sum()), int((inside & found).sum()),
+                tuple(zip(camera[missed].tolist(), labels[missed].tolist(), strict=True)))
+
+    return tally(np.concatenate(marked)), tally(np.concatenate(anywhere))
 
 
 def _missing(checks: tuple[Check, ...], min_frac: float, cfg: HomographyConfig) -> str:
@@ -592,13 +599,9 @@ def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure
     near its few markers links nobody elsewhere, so no new marker would ever correct it)."""
     if not isinstance(homography, HomographyEstimate) or cfg.verify_min_found_frac <= 0:
         return (), (), ""
-    H = homography.H_b_from_a
-    checks = (*state.checks, _check(H, a, b, cfg, _marker_hulls(markers, cfg)))
-    checks = checks[-cfg.verify_frames :]
-    anywhere: tuple[Check, ...] = ()
-    if cfg.verify_anywhere_min_found_frac > 0:
-        anywhere = (*state.checks_anywhere, _check(H, a, b, cfg, (None, None)))
-        anywhere = anywhere[-cfg.verify_frames :]
+    near, everywhere = _check(homography.H_b_from_a, a, b, cfg, _marker_hulls(markers, cfg))
+    checks = (*state.checks, near)[-cfg.verify_frames :]
+    anywhere = (*state.checks_anywhere, everywhere)[-cfg.verify_frames :]
     why = (_missing(checks, cfg.verify_min_found_frac, cfg)
            or _missing(anywhere, cfg.verify_anywhere_min_found_frac, cfg))
     if why:
