@@ -6,6 +6,7 @@ import csv
 import dataclasses
 import os
 from pathlib import Path
+from types import SimpleNamespace
 
 import cv2
 import numpy as np
@@ -19,8 +20,10 @@ from mvtrack.stages.background import (
     BackgroundResult,
     BackgroundState,
     SizeModel,
+    _area_thresholds,
     _fit_sizes,
     _grow_down,
+    _learn_sizes,
     background_step,
     link_groups,
     min_area_at,
@@ -622,11 +625,37 @@ def test_size_line_is_robust_to_people_who_lost_their_legs() -> None:
     heights = 0.25 * rows + 5 + rng.normal(0, 1.0, 200)
     heights[:50] *= 0.6  # a quarter lost their legs to the shadow test
     cfg = BackgroundConfig()
-    slope, intercept = _fit_sizes(np.c_[rows, heights], 240, cfg)
+    fit = _fit_sizes(np.c_[rows, heights], 240, cfg)
+    assert fit is not None and fit.line is not None and fit.band is None
+    slope, intercept = fit.line
     assert slope == pytest.approx(0.25, abs=0.02) and intercept == pytest.approx(5, abs=3)
     assert _fit_sizes(np.c_[rows, heights][:20], 240, cfg) is None  # too few
+
+
+def test_people_in_a_band_of_rows_set_t_area_there_only() -> None:
+    """Samples on rows 100-120 are too close for a slope: no line (the tracker's geometry
+    waits for one), but T_area uses their median height (32.5 px) within one height of the
+    band and nowhere else; a line learned before is kept when the newest samples crowd into
+    one band."""
+    rng = np.random.default_rng(3)
     clustered = np.c_[rng.uniform(100, 120, 100), rng.uniform(30, 35, 100)]
-    assert _fit_sizes(clustered, 240, cfg) is None  # rows too close: no slope to trust
+    cfg = BackgroundConfig()
+    fit = _fit_sizes(clustered, 240, cfg)
+    assert fit is not None and fit.line is None and fit.height_at(np.zeros(1)) is None
+    h = fit.area_height_at(np.array([60.0, 75.0, 110.0, 145.0, 160.0]))
+    assert h is not None and np.isnan(h[[0, 4]]).all()
+    assert h[1:4] == pytest.approx(np.median(clustered[:, 1]), abs=1e-9)
+    bottoms = np.array([110.0, 160.0])  # two blobs: in the band, and beyond it
+    stats = np.zeros((3, 5), np.int32)
+    stats[1:, cv2.CC_STAT_TOP], stats[1:, cv2.CC_STAT_HEIGHT] = bottoms - 30, 30
+    thresholds = _area_thresholds(stats, fit, 200.0, cfg)
+    assert thresholds == pytest.approx([cfg.size_area_frac * h[2] ** 2, 200.0])
+    assert _fit_sizes(clustered, 240, dataclasses.replace(cfg, size_band_heights=0)) is None
+    no_blobs = SimpleNamespace(**{k: np.zeros(0, bool) for k in (
+        "strong_ok", "edge_ok", "moving_ok", "is_mvo")}, area_px=np.zeros(0),
+        box_xywh=np.zeros((0, 4)))
+    kept = _learn_sizes(SizeModel(clustered, (0.25, 5.0)), no_blobs, (240, 320), cfg, 0)
+    assert kept.line == (0.25, 5.0) and len(kept.samples) == 100
 
 
 @pytest.mark.parametrize("regrow_legs", [True, False])

@@ -58,7 +58,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import lru_cache
 
 import cv2
@@ -114,19 +114,33 @@ class SizeModel:
     T_area, give samples (bottom row, height);
     a robust line height = slope * row + intercept through them (:func:`_fit_sizes`) lowers
     T_area for a blob to ``size_area_frac`` * (predicted height)^2 where that is smaller.
+    While the samples' rows are too close together for a slope (people seen only far away, in
+    one band of rows), T_area uses their median height near those rows (``band``); the
+    tracker's and the leg regrowth's geometry wait for a line.
 
     samples:  (N, 2) float64 [bottom row (px edge), height px], newest last, read-only
     line:     (slope, intercept) of the current fit, or None (too few or too clustered samples)
+    band:     (median height, first row, last row) while there is no line, or None
     """
 
     samples: np.ndarray = field(default_factory=lambda: _readonly(np.zeros((0, 2))))
     line: tuple[float, float] | None = None
+    band: tuple[float, float, float] | None = None
 
     def height_at(self, rows: np.ndarray) -> np.ndarray | None:
         """(K,) predicted person heights in px at the given bottom rows, or None (no fit)."""
         if self.line is None:
             return None
         return self.line[0] * np.asarray(rows, np.float64) + self.line[1]
+
+    def area_height_at(self, rows: np.ndarray) -> np.ndarray | None:
+        """(K,) person heights for T_area: the line's, else the band's median height on the
+        band's rows (NaN on the others); None with neither."""
+        if self.line is not None or self.band is None:
+            return self.height_at(rows)
+        height, first, last = self.band
+        r = np.asarray(rows, np.float64)
+        return np.where((r >= first) & (r <= last), height, np.nan)
 
 
 @dataclass(frozen=True, eq=False)
@@ -569,10 +583,11 @@ def _area_thresholds(stats: np.ndarray, sizes: SizeModel, min_area_px: float,
     ``size_min_area_px``)."""
     k = stats.shape[0] - 1
     bottom = stats[1:, cv2.CC_STAT_TOP] + stats[1:, cv2.CC_STAT_HEIGHT]
-    heights = sizes.height_at(bottom)
+    heights = sizes.area_height_at(bottom)
     if heights is None or cfg.size_area_frac <= 0:
         return np.full(k, min_area_px)
     scaled = cfg.size_area_frac * np.maximum(heights, 0.0) ** 2
+    scaled = np.where(np.isnan(scaled), min_area_px, scaled)  # rows the model does not cover
     return np.clip(scaled, min(cfg.size_min_area_px, min_area_px), min_area_px)
 
 
@@ -927,24 +942,34 @@ def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
     keep = inside & (aspect >= cfg.size_min_aspect) & (aspect <= cfg.size_max_aspect)
     new = np.c_[box[keep, 1] + box[keep, 3], box[keep, 3]]
     samples = np.concatenate([sizes.samples, new])[-cfg.size_samples :]
-    line = sizes.line
-    if frame_index % cfg.size_refit_frames == 0:
-        line = _fit_sizes(samples, height, cfg)
-    return SizeModel(_readonly(samples), line)
+    if frame_index % cfg.size_refit_frames:
+        return replace(sizes, samples=_readonly(samples))
+    fit = _fit_sizes(_readonly(samples), height, cfg)
+    # A line is not given up when the newest samples crowd into a few rows (or a refit
+    # fails): it still holds where people walked before.
+    if fit is None or (sizes.line is not None and fit.line is None):
+        return replace(sizes, samples=_readonly(samples))
+    return fit
 
 
-def _fit_sizes(samples: np.ndarray, frame_height: int,
-               cfg: BackgroundConfig) -> tuple[float, float] | None:
+def _fit_sizes(samples: np.ndarray, frame_height: int, cfg: BackgroundConfig) -> SizeModel | None:
     """Robust line height = slope * row + intercept: least squares, then again on the samples
-    within 2.5 robust sigmas (MAD) of it, twice. None with fewer than ``size_min_samples``
-    samples, rows spread over less than ``size_min_row_spread_frac`` of the frame, or a fit
-    that does not predict positive heights over the sampled rows."""
+    within 2.5 robust sigmas (MAD) of it, twice. When the rows spread over less than
+    ``size_min_row_spread_frac`` of the frame, a band instead: the median height on the
+    sampled rows (5-95 %) widened by ``size_band_heights`` times that height each way.
+    None with fewer than ``size_min_samples`` samples, a clustered set and no band
+    (``size_band_heights`` 0), or a line that does not predict positive heights over the
+    sampled rows. The model's samples are ``samples``."""
     if len(samples) < cfg.size_min_samples:
         return None
     rows, heights = samples[:, 0], samples[:, 1]
     lo, hi = np.percentile(rows, [5, 95])
     if hi - lo < cfg.size_min_row_spread_frac * frame_height:
-        return None
+        if cfg.size_band_heights <= 0:
+            return None
+        median = float(np.median(heights))
+        pad = cfg.size_band_heights * median
+        return SizeModel(samples, band=(median, float(lo - pad), float(hi + pad)))
     keep = np.ones(len(rows), bool)
     slope = intercept = 0.0
     for _ in range(3):
@@ -956,7 +981,7 @@ def _fit_sizes(samples: np.ndarray, frame_height: int,
             return None
     if min(slope * lo + intercept, slope * hi + intercept) <= 0:
         return None
-    return float(slope), float(intercept)
+    return SizeModel(samples, (float(slope), float(intercept)))
 
 
 def background_step(
