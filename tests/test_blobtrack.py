@@ -501,6 +501,32 @@ def test_a_tracked_person_who_becomes_a_group_keeps_the_part_he_overlapped() -> 
     assert res[1].groups == ((1, (2, 1)),)  # left to right: the newcomer, then label 1
 
 
+@pytest.mark.parametrize("two_heads", [False, True])
+def test_a_false_group_cut_rejoins_its_person(two_heads: bool) -> None:
+    """A tracked person's blob shows two heads for one frame (a passer-by's foot, say) and is
+    cut into two targets, which merge again at once. Where the blob shows one head from then
+    on, the part is absorbed after group_rejoin_frames frames; where it keeps two heads (two
+    people, one of whom stepped out from behind the other), both stay."""
+    one = np.zeros((62, 36), bool)
+    person(one, 9, 2, w=18)
+    wide = np.zeros((62, 36), bool)
+    person(wide, 0, 2, w=36)  # one broad person: one head
+    pair = group(0, 18, shape=(62, 36))
+    later = pair if two_heads else wide
+    frames = [frame_with(one, 20, 30), frame_with(pair, 20, 30)]
+    frames += [frame_with(later, 20, 30) for _ in range(CFG.group_rejoin_frames + 3)]
+    _, res = run(frames)
+    assert res[1].groups == ((1, (2, 1)),)
+    merged = res[2 : 2 + CFG.group_rejoin_frames - 1]
+    assert all(r.labels.tolist() == [1, 2] and r.merges == ((1, (1, 2)),) for r in merged)
+    end = res[2 + CFG.group_rejoin_frames - 1 :]
+    if two_heads:
+        assert all(r.labels.tolist() == [1, 2] and r.reunions == () for r in end)
+    else:
+        assert len(end[0].labels) == 1 and len(end[0].reunions) == 1
+        assert all(len(r.labels) == 1 for r in end)
+
+
 def test_a_group_cut_by_the_frame_edge_is_not_divided() -> None:
     pair = group(0, 18, shape=(62, 36))
     _, res = run([frame_with(pair, 120, 0), frame_with(pair, 0, 55)])

@@ -21,7 +21,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    one person (stacked head and body, or a leg inside its person's box) reunite instead: the
    largest keeps its label (:func:`_reunite`, ``reunite_fragments``). Stacked parts taller
    together than the camera's size line says a person is there are two people, one behind the
-   other, and stay a merge (``fragment_max_height_frac``; needs ``size_model``).
+   other, and stay a merge (``fragment_max_height_frac``; needs ``size_model``). A part cut
+   from a target by a group cut (rule 0) that shares one merged blob with it, the blob showing
+   one head, for ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false.
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
@@ -94,6 +96,9 @@ class TargetTrack:
     colour_hist:           (bins**channels,) float64 summing to 1, or None before any colour
     merged:                bool, whether it was part of a merge in the last frame
     external_id:           int, the detection's own track id, -1 when tracked by the rules
+    cut_from:              int, the label of the target whose blob a group cut gave it its
+                           part (0: none)
+    rejoined:              int, frames in a row it has shared one merged blob with cut_from
     """
 
     label: int
@@ -104,6 +109,8 @@ class TargetTrack:
     colour_hist: np.ndarray | None = None
     merged: bool = False
     external_id: int = -1
+    cut_from: int = 0
+    rejoined: int = 0
 
     def velocity_xy(self) -> np.ndarray:
         """(2,) float64 px/frame: mean displacement over the remembered centroids."""
@@ -470,6 +477,8 @@ class _Frame:
     divisions: list[MergeDivision] = field(default_factory=list)
     reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     extra_labels: list[tuple[int, int]] = field(default_factory=list)  # (blob index, label)
+    cut_from: dict[int, int] = field(default_factory=dict)  # group part label -> its heir's
+    two_heads: set[int] = field(default_factory=set)  # merged with a group sibling, two heads
     groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
 
 
@@ -548,7 +557,7 @@ def _reunite(
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
     legs = _legs_of(boxes, ctx)
-    linked = _stacked(boxes, ctx) | legs | legs.T
+    linked = _stacked(boxes, ctx) | legs | legs.T | _rejoined(heirs, targets, work, ctx.cfg)
     n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
         return heirs
@@ -561,6 +570,39 @@ def _reunite(
             absorbed = tuple(sorted(targets[r].label for r in members[1:]))
             work.reunions.append((targets[members[0]].label, absorbed))
     return tuple(sorted(kept))
+
+
+def _note_heads(
+    work: _Frame,
+    heirs: tuple[int, ...],
+    targets: tuple[TargetTrack, ...],
+    crop: np.ndarray,
+    window: tuple[slice, slice],
+    ctx: _Inputs,
+) -> None:
+    """Records in ``work.two_heads`` the heirs of a merged blob holding a group part and the
+    target it was cut from while the blob still shows several heads (:func:`group_cuts`):
+    evidence that the cut was right."""
+    labels = {targets[r].label for r in heirs}
+    if not any(targets[r].cut_from in labels for r in heirs):
+        return
+    if _inside(window, work.label_image.shape) and len(group_cuts(crop, ctx.cfg)):
+        work.two_heads |= labels
+
+
+def _rejoined(
+    heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame, cfg: TrackerConfig
+) -> np.ndarray:
+    """(K, K) bool, [i, j]: heir i is a group part cut from heir j that has shared one merged
+    blob with it, showing one head, for ``group_rejoin_frames`` frames in a row (this one
+    included): the cut was false."""
+    if cfg.group_rejoin_frames <= 0:
+        return np.zeros((len(heirs),) * 2, bool)
+    labels = np.array([targets[r].label for r in heirs])
+    cut_from = np.array([targets[r].cut_from for r in heirs])
+    due = np.array([targets[r].rejoined + 1 >= cfg.group_rejoin_frames
+                    and targets[r].label not in work.two_heads for r in heirs])
+    return (cut_from[:, None] == labels[None, :]) & due[:, None]
 
 
 def _blob_box(window: tuple[slice, slice]) -> np.ndarray:
@@ -801,6 +843,7 @@ def track_masks(
         window = slices[int(blob_id)]
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
+            _note_heads(work, heirs, state.targets, cur[window] == blob_id, window, ctx)
             heirs = _reunite(heirs, state.targets, work, ctx)
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
@@ -825,6 +868,20 @@ def track_masks(
         if whole < 0:
             work.blob_of[label] = int(blob_id)
     return _finish_masks(state, work, ctx)
+
+
+def _count_rejoined(track: TargetTrack, work: _Frame) -> TargetTrack:
+    """The track with its group-cut bookkeeping for this frame: a part cut this frame starts
+    at 0; one merged into the blob of the target it was cut from, the blob showing one head,
+    counts one more frame; any other frame resets the count."""
+    if track.label in work.cut_from:
+        return replace(track, cut_from=work.cut_from[track.label], rejoined=0)
+    if not track.cut_from:
+        return track
+    together = (track.label in work.merged and track.cut_from in work.merged
+                and work.blob_of.get(track.label) == work.blob_of.get(track.cut_from)
+                and track.label not in work.two_heads)
+    return replace(track, rejoined=track.rejoined + 1 if together else 0)
 
 
 def _inside(window: tuple[slice, slice], shape: tuple[int, ...]) -> bool:
@@ -858,6 +915,8 @@ def _split_group(
         else:
             label, work.next_label = work.next_label, work.next_label + 1
             work.extra_labels.append((b, label))
+            if keep >= 0:
+                work.cut_from[label] = int(work.rows[heirs[0]])
         work.label_image[window][part] = label
         work.blob_of[label] = blob_id
         labels.append(label)
@@ -895,7 +954,7 @@ def _finish_masks(
                 box_xywh=fresh.box_xywh,
                 merged=True,
             )
-        tracks.append(fresh)
+        tracks.append(_count_rejoined(fresh, work))
     births, splits = _events(work.plan, rows, work.new_labels, work.extra_labels)
     present = set(labels.tolist())
     result = TrackResult(
