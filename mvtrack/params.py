@@ -120,11 +120,12 @@ class BackgroundConfig(_Checked):
     size_refit_frames: int = param(25, "refit the size line this often", 1, 1000000)
     # People seen only far away stay in a band of rows too narrow for a slope ('three' cam2,
     # 240x180: 20 px tall people on rows 48-82 for the first 150 frames, under T_area 100,
-    # every one missed until the line came). Their median height sets T_area within one such
-    # height of that band (the tracker's and the leg regrowth's geometry wait for a line:
-    # with the band there too, one_edge s0 IDF1 0.966 -> 0.88, legs grown into the person in
-    # front). 24 sweep clips: IDF1 0.916 -> 0.924, consistency 0.933 -> 0.955 (three s2
-    # 0.757 -> 0.896 / 0.461 -> 0.997, three s1 0.928 -> 0.970), no clip down by > 0.002.
+    # every one missed until the line came). Their median height holds within one such height
+    # of that band: for T_area, the fragment rules and the leg regrowth. 24 sweep clips, draws
+    # 0 / 1: IDF1 0.916 -> 0.924 / 0.918 with T_area only (three s2 0.757 -> 0.896, three s1
+    # 0.928 -> 0.970), -> 0.931 / 0.932 (consistency 0.98 both) everywhere (one_edge s2 0.82
+    # -> 1.00, an H at last), once false group cuts rejoin (group_rejoin_frames; without,
+    # one_edge s0 0.966 -> 0.88: a false cut's part was no longer absorbed as a fragment).
     size_band_heights: float = param(
         1.0, "samples too close in rows for a line: their median height holds this many "
         "heights beyond the sampled rows (0 = no model until a line)", 0.0, 100.0,
@@ -387,7 +388,6 @@ class TrackerConfig(_Checked):
         0.01,
         10.0,
     )
-
     # A false cut (a passer-by's foot makes a second "head") leaves two targets on one person;
     # they merge again at once and, as neither is a fragment of the other (both full height),
     # the merge division feeds both for as long as the person stays: one_edge s0 cam0 with a

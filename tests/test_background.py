@@ -632,17 +632,17 @@ def test_size_line_is_robust_to_people_who_lost_their_legs() -> None:
     assert _fit_sizes(np.c_[rows, heights][:20], 240, cfg) is None  # too few
 
 
-def test_people_in_a_band_of_rows_set_t_area_there_only() -> None:
-    """Samples on rows 100-120 are too close for a slope: no line (the tracker's geometry
-    waits for one), but T_area uses their median height (32.5 px) within one height of the
-    band and nowhere else; a line learned before is kept when the newest samples crowd into
-    one band."""
+def test_people_in_a_band_of_rows_have_their_median_height_there_only() -> None:
+    """Samples on rows 100-120 are too close for a slope: no line, but their median height
+    (32.5 px) holds within one height of the band (T_area, fragments, leg regrowth) and
+    nowhere else; a line learned before is kept when the newest samples crowd into one band."""
     rng = np.random.default_rng(3)
     clustered = np.c_[rng.uniform(100, 120, 100), rng.uniform(30, 35, 100)]
     cfg = BackgroundConfig()
     fit = _fit_sizes(clustered, 240, cfg)
-    assert fit is not None and fit.line is None and fit.height_at(np.zeros(1)) is None
-    h = fit.area_height_at(np.array([60.0, 75.0, 110.0, 145.0, 160.0]))
+    assert fit is not None and fit.line is None and fit.band is not None
+    assert fit.slope_intercept() == (0.0, fit.band[0])
+    h = fit.height_at(np.array([60.0, 75.0, 110.0, 145.0, 160.0]))
     assert h is not None and np.isnan(h[[0, 4]]).all()
     assert h[1:4] == pytest.approx(np.median(clustered[:, 1]), abs=1e-9)
     bottoms = np.array([110.0, 160.0])  # two blobs: in the band, and beyond it

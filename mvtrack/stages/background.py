@@ -115,8 +115,7 @@ class SizeModel:
     a robust line height = slope * row + intercept through them (:func:`_fit_sizes`) lowers
     T_area for a blob to ``size_area_frac`` * (predicted height)^2 where that is smaller.
     While the samples' rows are too close together for a slope (people seen only far away, in
-    one band of rows), T_area uses their median height near those rows (``band``); the
-    tracker's and the leg regrowth's geometry wait for a line.
+    one band of rows), the model is their median height near those rows (``band``).
 
     samples:  (N, 2) float64 [bottom row (px edge), height px], newest last, read-only
     line:     (slope, intercept) of the current fit, or None (too few or too clustered samples)
@@ -128,19 +127,19 @@ class SizeModel:
     band: tuple[float, float, float] | None = None
 
     def height_at(self, rows: np.ndarray) -> np.ndarray | None:
-        """(K,) predicted person heights in px at the given bottom rows, or None (no fit)."""
-        if self.line is None:
-            return None
-        return self.line[0] * np.asarray(rows, np.float64) + self.line[1]
-
-    def area_height_at(self, rows: np.ndarray) -> np.ndarray | None:
-        """(K,) person heights for T_area: the line's, else the band's median height on the
-        band's rows (NaN on the others); None with neither."""
-        if self.line is not None or self.band is None:
-            return self.height_at(rows)
-        height, first, last = self.band
+        """(K,) predicted person heights in px at the given bottom rows: the line's, else the
+        band's median height on the band's rows (NaN on the others); None with neither."""
         r = np.asarray(rows, np.float64)
+        if self.line is not None:
+            return self.line[0] * r + self.line[1]
+        if self.band is None:
+            return None
+        height, first, last = self.band
         return np.where((r >= first) & (r <= last), height, np.nan)
+
+    def slope_intercept(self) -> tuple[float, float] | None:
+        """The line, or the band as a flat line (check :meth:`height_at` for its rows)."""
+        return self.line if self.line is not None or self.band is None else (0.0, self.band[0])
 
 
 @dataclass(frozen=True, eq=False)
@@ -583,7 +582,7 @@ def _area_thresholds(stats: np.ndarray, sizes: SizeModel, min_area_px: float,
     ``size_min_area_px``)."""
     k = stats.shape[0] - 1
     bottom = stats[1:, cv2.CC_STAT_TOP] + stats[1:, cv2.CC_STAT_HEIGHT]
-    heights = sizes.area_height_at(bottom)
+    heights = sizes.height_at(bottom)
     if heights is None or cfg.size_area_frac <= 0:
         return np.full(k, min_area_px)
     scaled = cfg.size_area_frac * np.maximum(heights, 0.0) ** 2
@@ -680,9 +679,10 @@ def _regrow_legs(
     corridor, lies beyond y_f, or runs sideways, and stays a shadow. Blobs wider than 0.8 of
     the predicted height (groups) are left as they are.
     """
-    if not cfg.regrow_legs or sizes.line is None or sizes.line[0] >= 1.0:
+    line = sizes.slope_intercept()
+    if not cfg.regrow_legs or line is None or line[0] >= 1.0:
         return False
-    slope, intercept = sizes.line
+    slope, intercept = line
     t_low = _u8_floor(cfg.t_low)
     grown = False
     rows, cols = mvo_labels.shape
@@ -692,8 +692,11 @@ def _regrow_legs(
         feet_edge = (y + intercept) / (1.0 - slope)
         height = feet_edge - y
         gap = feet_edge - (y + h)
+        held = sizes.height_at(np.array([feet_edge]))  # NaN beyond a band's rows
         if (
             height <= 0
+            or held is None
+            or np.isnan(held[0])
             or w > 0.8 * height
             or gap < (cfg.legs_stop_frac + cfg.legs_min_gap_frac) * height
         ):
