@@ -391,7 +391,7 @@ class TrackerConfig(_Checked):
     # A false cut (a passer-by's foot makes a second "head") leaves two targets on one person;
     # they merge again at once and, as neither is a fragment of the other (both full height),
     # the merge division feeds both for as long as the person stays: one_edge s0 cam0 with a
-    # size line from frame 50 kept such a duplicate for 550 frames (precision 0.98 -> 0.78).
+    # size model from frame 50 kept such a duplicate for 550 frames (precision 0.98 -> 0.78).
     # Two real people cut apart keep showing two heads in their merged blob: that resets it.
     group_rejoin_frames: int = param(
         25, "group split: a part that shares one merged blob with the target it was cut from "

@@ -477,7 +477,7 @@ class _Frame:
     divisions: list[MergeDivision] = field(default_factory=list)
     reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     extra_labels: list[tuple[int, int]] = field(default_factory=list)  # (blob index, label)
-    cut_from: dict[int, int] = field(default_factory=dict)  # group part label -> its heir's
+    cut_from: dict[int, int] = field(default_factory=dict)  # new group part -> label cut from
     two_heads: set[int] = field(default_factory=set)  # merged with a group sibling, two heads
     groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
 
