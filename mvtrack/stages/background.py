@@ -776,11 +776,14 @@ def stacked_boxes(
     return stacked
 
 
-def box_intersections(box_xywh: np.ndarray) -> np.ndarray:
-    """(K, K) float64: the area each pair of boxes (K, 4) [x, y, w, h] shares (0 apart)."""
+def box_intersections(box_xywh: np.ndarray, other_xywh: np.ndarray | None = None) -> np.ndarray:
+    """(K, M) float64: the area each box (K, 4) [x, y, w, h] shares with each of ``other_xywh``
+    (M, 4) (default: the same boxes, K x K), 0 apart."""
     x0, y0, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
-    over_x = np.minimum(x0[:, None] + w[:, None], x0 + w) - np.maximum(x0[:, None], x0)
-    over_y = np.minimum(y0[:, None] + h[:, None], y0 + h) - np.maximum(y0[:, None], y0)
+    x1, y1, w1, h1 = (np.asarray(other_xywh, np.float64).reshape(-1, 4).T
+                      if other_xywh is not None else (x0, y0, w, h))
+    over_x = np.minimum(x0[:, None] + w[:, None], x1 + w1) - np.maximum(x0[:, None], x1)
+    over_y = np.minimum(y0[:, None] + h[:, None], y1 + h1) - np.maximum(y0[:, None], y1)
     return np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
 
 

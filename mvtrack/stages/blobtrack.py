@@ -63,7 +63,7 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import find_peaks
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import SizeModel, link_groups, stacked_boxes
+from mvtrack.stages.background import SizeModel, box_intersections, link_groups, stacked_boxes
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -517,9 +517,8 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     cfg = ctx.cfg
     x, y, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
     bottom, reach = y + h, cfg.part_reach_frac * h
-    over_x = np.minimum(x[:, None] + w[:, None], x + w + reach) - np.maximum(x[:, None], x - reach)
-    over_y = np.minimum(bottom[:, None], bottom + reach) - np.maximum(y[:, None], y)
-    inside = (np.clip(over_x, 0, None) * np.clip(over_y, 0, None)
+    grown = np.c_[x - reach, y, w + 2 * reach, h + reach]
+    inside = (box_intersections(box_xywh, grown)
               >= cfg.part_contained_frac * np.maximum(w * h, 1e-9)[:, None])
     part = (
         inside
