@@ -571,22 +571,25 @@ def _reunite(
     return tuple(sorted(kept))
 
 
-def _note_heads(
-    work: _Frame,
+def _two_heads(
     heirs: tuple[int, ...],
     targets: tuple[TargetTrack, ...],
-    crop: np.ndarray,
+    mvo_labels: np.ndarray,
+    blob_id: int,
     window: tuple[slice, slice],
-    ctx: _Inputs,
-) -> None:
-    """Records in ``work.two_heads`` the heirs of a merged blob holding a group part and the
-    target it was cut from while the blob still shows several heads (:func:`group_cuts`):
-    evidence that the cut was right."""
+    cfg: TrackerConfig,
+) -> set[int]:
+    """The labels of a merged blob's heirs (for ``work.two_heads``) when they include a group
+    part and the target it was cut from and the blob (``blob_id`` of ``mvo_labels``, in
+    ``window``) still shows several heads (:func:`group_cuts`): evidence that the cut was
+    right. Else the empty set."""
     labels = {targets[r].label for r in heirs}
     if not any(targets[r].cut_from in labels for r in heirs):
-        return
-    if _inside(window, work.label_image.shape) and len(group_cuts(crop, ctx.cfg)):
-        work.two_heads |= labels
+        return set()  # the common case: no group part here, nothing to look at
+    crop = mvo_labels[window] == blob_id
+    if _inside(window, mvo_labels.shape) and len(group_cuts(crop, cfg)):
+        return labels
+    return set()
 
 
 def _rejoined(
@@ -842,7 +845,7 @@ def track_masks(
         window = slices[int(blob_id)]
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
-            _note_heads(work, heirs, state.targets, cur[window] == blob_id, window, ctx)
+            work.two_heads |= _two_heads(heirs, state.targets, cur, int(blob_id), window, cfg)
             heirs = _reunite(heirs, state.targets, work, ctx)
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
