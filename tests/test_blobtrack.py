@@ -262,6 +262,37 @@ def test_fully_occluded_merged_target_is_retired_and_never_comes_back() -> None:
     assert labels_seen[26:] == [[1, 3]] * 4  # A emerges with a new label
 
 
+@pytest.mark.parametrize("merge_exit", [True, False])
+def test_a_merged_target_walking_out_of_the_bottom_retires_at_the_border(
+    merge_exit: bool,
+) -> None:
+    """B (walking down-right) merges with A (walking down slowly) and leaves through the bottom
+    border. Once B's predicted centroid is past the border (frame 19, y 119.6 of 120 rows), B
+    has left: it retires and the pixels the division gives it stay unlabelled, so A's box is
+    still A's; without the rule B holds its label one frame longer."""
+    cfg = replace(CFG, merge_exit=merge_exit)
+    state = tracker_init()
+    labels, a_boxes, unlabelled, given_b = [], [], [], []
+    for t in range(21):
+        truth = np.zeros((H + 100, W), np.int32)
+        truth[40 + t : 90 + t, 70:95] = 1
+        truth[50 + 3 * t : 100 + 3 * t, 20 + 3 * t : 45 + 3 * t] = 2
+        mvo, _ = ndimage.label(truth[:H] > 0)
+        state, r = track_masks(state, mvo.astype(np.int32), None, cfg)
+        assert r.label_image is not None
+        labels.append(r.labels.tolist())
+        a_boxes.append(r.boxes_xywh[0].tolist())
+        unlabelled.append(int(((mvo > 0) & (r.label_image == 0)).sum()))
+        given_b.append(sum(int(d.assigned_px[d.labels == 2].sum()) for d in r.merge_divisions))
+    assert labels[9:19] == [[1, 2]] * 10 and labels[20] == [1]  # merged from frame 9
+    assert labels[19] == ([1] if merge_exit else [1, 2])
+    assert r.retirements == (() if merge_exit else (2,))
+    assert a_boxes[19] == [69.5, 58.5, 25.0, 50.0]  # A's 50 rows from row 59 only
+    assert unlabelled[19] == (505 if merge_exit else 0)  # B's sliver and A's legs behind it
+    assert given_b[19] == (0 if merge_exit else 505)
+    assert unlabelled[:19] == [0] * 19 and unlabelled[20] == 0
+
+
 def test_bad_inputs_are_named() -> None:
     state, _ = track_masks(tracker_init(), blobs(), None, CFG)
     with pytest.raises(ValueError, match="frame size changed"):

@@ -17,7 +17,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
 2. A blob that is the continuation of exactly one previous target inherits its label.
 3. A blob that is the continuation of two or more previous targets is a *merge*: its pixels are
    divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
-   target that receives no pixel is fully occluded and is retired. Targets that were parts of
+   target that receives no pixel is fully occluded and is retired; one predicted past the left,
+   right or bottom border has walked out and is retired too (``merge_exit``; the pixels the
+   division gives it stay unlabelled, not someone else's). Targets that were parts of
    one person (stacked head and body, or a leg inside its person's box) reunite instead: the
    largest keeps its label (:func:`_reunite`, ``reunite_fragments``). Stacked parts taller
    together than the camera's size line says a person is there are two people, one behind the
@@ -571,6 +573,21 @@ def _reunite(
     return tuple(sorted(kept))
 
 
+def _walked_out(tracks: list[TargetTrack], shape: tuple[int, ...], cfg: TrackerConfig
+                ) -> frozenset[int]:
+    """Labels of the merged targets predicted past the left, right or bottom frame border (the
+    centroid of what was left of them in view, moved on): they have left, though the division
+    still gives them the sliver at the border (none when all of them have). Not the top: a far
+    person cut by it keeps the feet in view, and a division that shrinks the part seen moves
+    its centroid up, not the person."""
+    if not cfg.merge_exit:
+        return frozenset()
+    h, w = shape[:2]
+    out = frozenset(t.label for t in tracks for x, y in [t.predicted_xy()]
+                    if x < -0.5 or x > w - 0.5 or y > h - 0.5)
+    return out if len(out) < len(tracks) else frozenset()
+
+
 def _two_heads(
     heirs: tuple[int, ...],
     targets: tuple[TargetTrack, ...],
@@ -704,12 +721,17 @@ def _merge_blob(
     tracks: list[TargetTrack],
     ctx: _Inputs,
 ) -> None:
+    """Divide a merged blob among its targets; the pixels given to targets that have left
+    (:func:`_walked_out`) stay unlabelled and those targets retire."""
+    gone = _walked_out(tracks, work.label_image.shape, ctx.cfg)
     origin = np.array([window[1].start, window[0].start], np.float64)
     who, counts, pred = _divide_blob(blob, tracks, ctx.codes_in(window), origin, ctx.cfg)
     labels = np.array([t.label for t in tracks], np.int64)
     view = work.label_image[window]
     assigned = np.zeros(len(tracks), np.int64)
     for i, t in enumerate(tracks):
+        if t.label in gone:
+            continue
         mine = who == i
         view[mine] = t.label
         assigned[i] = int(mine.sum())
