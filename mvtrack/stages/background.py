@@ -947,14 +947,12 @@ def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
     aspect = box[:, 3] / np.maximum(box[:, 2], 1.0)
     keep = inside & (aspect >= cfg.size_min_aspect) & (aspect <= cfg.size_max_aspect)
     new = np.c_[box[keep, 1] + box[keep, 3], box[keep, 3]]
-    samples = np.concatenate([sizes.samples, new])[-cfg.size_samples :]
-    if frame_index % cfg.size_refit_frames:
-        return replace(sizes, samples=_readonly(samples))
-    fit = _fit_sizes(_readonly(samples), height, cfg)
+    samples = _readonly(np.concatenate([sizes.samples, new])[-cfg.size_samples :])
+    fit = None if frame_index % cfg.size_refit_frames else _fit_sizes(samples, height, cfg)
     # A line is not given up when the newest samples crowd into a few rows (or a refit
     # fails): it still holds where people walked before.
     if fit is None or (sizes.line is not None and fit.line is None):
-        return replace(sizes, samples=_readonly(samples))
+        return replace(sizes, samples=samples)
     return fit
 
 
