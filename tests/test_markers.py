@@ -184,9 +184,9 @@ def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
     found = comotion_search(_before(pool, 50), cfg, _fit, transfer_errors,
                             np.random.default_rng(0))
     assert found is not None and found.since == 45 and len(found.markers) == 40
-    assert comotion_confirm(_before(pool, 50), found, cfg, transfer_errors, 49) == (
+    assert comotion_confirm(_before(pool, 50), found, cfg, _fit, transfer_errors, 49) == (
         "waiting", found)
-    verdict, confirmed = comotion_confirm(pool, found, cfg, transfer_errors, 95)
+    verdict, confirmed = comotion_confirm(pool, found, cfg, _fit, transfer_errors, 95)
     assert verdict == "confirmed" and confirmed is not None
     assert confirmed.links == found.links and confirmed.since == 95
     assert len(confirmed.markers) == 80  # the held-out candidates join the hypothesis's own
@@ -195,25 +195,50 @@ def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
     # refuted beyond 2.5 gates).
     wrong = Comotion(np.array([[1.0, 0, 230], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
                      45)
-    assert comotion_confirm(pool, wrong, cfg, transfer_errors, 95) == ("rejected", None)
+    assert comotion_confirm(pool, wrong, cfg, _fit, transfer_errors, 95) == ("rejected", None)
     # 15 px off: outliers, but near enough for a loose early fit; it is not confirmed either.
     loose = Comotion(np.array([[1.0, 0, 215], [0, 1, 10], [0, 0, 1]]), ((1, 101), (2, 102)), (),
                      45)
-    assert comotion_confirm(pool, loose, cfg, transfer_errors, 95) == ("waiting", loose)
+    assert comotion_confirm(pool, loose, cfg, _fit, transfer_errors, 95) == ("waiting", loose)
     tight = MarkerConfig(comotion_refute_gates=1.0)
-    assert comotion_confirm(pool, loose, tight, transfer_errors, 95) == ("rejected", None)
+    assert comotion_confirm(pool, loose, tight, _fit, transfer_errors, 95) == ("rejected", None)
     # With no own evidence and no confirmation, it waits comotion_confirm_frames after it was
     # found (whether or not new candidates came), then is "unrefuted": accepted as it was
     # (verification judges it from there), or dropped when so configured.
     stale = Comotion(wrong.H_b_from_a, ((7, 107),), (), 0)
-    assert comotion_confirm(pool, stale, cfg, transfer_errors, 95)[0] == "waiting"
-    assert comotion_confirm(pool, stale, cfg, transfer_errors, 101) == ("unrefuted", stale)
+    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 95)[0] == "waiting"
+    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 101) == ("unrefuted", stale)
     short = MarkerConfig(comotion_confirm_frames=50)
-    assert comotion_confirm(pool, stale, short, transfer_errors, 95) == ("unrefuted", stale)
+    assert comotion_confirm(pool, stale, short, _fit, transfer_errors, 95) == ("unrefuted", stale)
     strict = MarkerConfig(comotion_confirm_frames=50, comotion_accept_unrefuted=False)
-    assert comotion_confirm(pool, stale, strict, transfer_errors, 95) == ("rejected", None)
+    assert comotion_confirm(pool, stale, strict, _fit, transfer_errors, 95) == ("rejected", None)
     off = MarkerConfig(comotion_confirm_pairs=0)
-    assert comotion_confirm(pool, wrong, off, transfer_errors, 95) == ("confirmed", wrong)
+    assert comotion_confirm(pool, wrong, off, _fit, transfer_errors, 95) == ("confirmed", wrong)
+
+
+def test_comotion_confirm_refits_a_loose_hypothesis_with_a_newcomer() -> None:
+    """A hypothesis fitted to a few early paths can extrapolate 15 px off (gates 9 px): later
+    candidates of its own pairs and of a newcomer all miss it, but not clearly. Refitted to
+    its markers and the newcomer's new candidates it explains every pair: confirmed, with the
+    refit. A newcomer that no homography of that pairing explains confirms nothing."""
+    cfg = MarkerConfig()
+    pool = _pool(4)
+    early = [Marker(int(f), int(la), int(lb), tuple(xa), tuple(xb), 30.0, 30.0)
+             for f, (la, lb), xa, xb in zip(pool.frame, pool.labels, pool.x_a, pool.x_b,
+                                            strict=True)
+             if f < 50 and la <= 3 and lb == la + 100]
+    three = ((1, 101), (2, 102), (3, 103))
+    loose = Comotion(np.array([[1.0, 0, 215], [0, 1, 10], [0, 0, 1]]), three, tuple(early), 45)
+    verdict, refit = comotion_confirm(pool, loose, cfg, _fit, transfer_errors, 95)
+    assert verdict == "confirmed" and refit is not None
+    assert refit.links == (*three, (4, 104)) and refit.since == 95
+    assert np.allclose(refit.H_b_from_a / refit.H_b_from_a[2, 2],
+                       [[1, 0, 200], [0, 1, 10], [0, 0, 1]], atol=1e-6)
+    # The newcomer's later feet in B 40 px off its path: no refit keeps all four pairs.
+    off = (pool.labels[:, 1] == 104) & (pool.frame > 45)
+    astray = Candidates(pool.frame, pool.labels, pool.x_a, pool.x_b + off[:, None] * [0, 40],
+                        pool.heights)
+    assert comotion_confirm(astray, loose, cfg, _fit, transfer_errors, 95) == ("waiting", loose)
 
 
 def test_markers_add_keeps_one_per_cell() -> None:

@@ -494,7 +494,8 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
     held: list[Comotion] = []
     unrefuted: list[Comotion] = []
     for hypothesis in hypotheses:
-        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, transfer_errors, frame)
+        verdict, checked = comotion_confirm(pool, hypothesis, mcfg, solve_homography,
+                                             transfer_errors, frame)
         if verdict == "confirmed":
             return checked, held
         if checked is not None:
