@@ -601,8 +601,9 @@ def _refit_confirm(
     used_b = {b for _, b in hypothesis.links}
     x_a = np.array([m.x_a for m in hypothesis.markers])
     x_b = np.array([m.x_b for m in hypothesis.markers])
-    index = _PairIndex.of_pool(pool)
-    best: tuple[int, Comotion] | None = None
+    index = _PairIndex.of_pool(pool)  # once: each refit's support reuses it
+    gates = pool.gates_px(cfg)
+    best: tuple[np.ndarray, list[tuple[int, int]], np.ndarray] | None = None
     for k, (a_label, b_label) in enumerate(index.pairs.tolist()):
         rows = index.rows[k][new[index.rows[k]]]
         if a_label in used_a or b_label in used_b or len(rows) < cfg.comotion_confirm_support:
@@ -610,12 +611,12 @@ def _refit_confirm(
         H = fit(np.r_[x_a, pool.x_a[rows]], np.r_[x_b, pool.x_b[rows]])
         if H is None:
             continue
-        chosen, inliers = _support(pool, H, cfg, errors)
+        chosen, inliers = _chosen_rows(index, errors(H, pool.x_a, pool.x_b) < gates, index.n,
+                                       cfg, cfg.comotion_min_support)
         if {(a_label, b_label), *hypothesis.links} <= set(chosen) and (
-                best is None or inliers.sum() > best[0]):
-            best = (int(inliers.sum()),
-                    _as_comotion(pool, H, chosen, inliers, int(pool.frame.max())))
-    return None if best is None else best[1]
+                best is None or inliers.sum() > best[2].sum()):
+            best = (H, chosen, inliers)
+    return None if best is None else _as_comotion(pool, *best, int(pool.frame.max()))
 
 
 def markers_add(state: MarkerState, markers: Sequence[Marker], cfg: MarkerConfig) -> MarkerState:
