@@ -9,9 +9,11 @@ from mvtrack.evaluate.metrics import (
     FrameRows,
     MaskScores,
     detection_scores,
+    error_causes,
     frame_matches,
     idf1,
     mask_scores,
+    match_all,
 )
 
 
@@ -94,6 +96,35 @@ def test_false_alarms_lower_precision() -> None:
         np.concatenate([truth.feet, [[300.0, 10.0], [300.0, 10.0]]]),
     )
     assert detection_scores(extra, truth)["precision"] == pytest.approx(8 / 10)
+
+
+def test_error_causes_sort_each_false_alarm_and_miss() -> None:
+    """One frame, people 40 px tall (gate 20 px), one of each cause; a prediction on a hardly
+    visible person is don't care and counts in none."""
+    people = {1: (50, 100), 2: (150, 100), 3: (250, 100), 4: (250, 75), 5: (350, 100),
+              6: (450, 100)}
+    truth = FrameRows.of([0] * 6, list(people), list(people.values()), np.full(6, 40.0),
+                         [1, 1, 1, 1, 1, 0.2])
+    predictions = [
+        (50, 100),  # on person 1
+        (50, 85),  # person 1 again, a torso tracked apart: duplicate
+        (150, 70),  # person 2's target, 30 px above the feet: displaced (and 2 is missed)
+        (250, 100),  # on person 3; person 4 stands 25 px behind, in this target: taken
+        (600, 10),  # nobody there: phantom
+        (450, 99),  # on the hardly visible person 6: don't care
+    ]  # person 5: undetected
+    pred = FrameRows.of([0] * 6, range(6), predictions)
+    det = detection_scores(pred, truth)
+    assert {k: det[k] for k in det if k.startswith(("false_alarm", "miss"))} == {
+        "false_alarm_duplicate": 1, "false_alarm_displaced": 1, "false_alarm_phantom": 1,
+        "miss_displaced": 1, "miss_taken": 1, "miss_undetected": 1}
+    assert det["predicted_rows"] - det["matches"] == 3
+    assert det["truth_rows"] - det["matches"] == 3
+    # nearer than near_heights = 0.5 only the duplicate is someone's; misses are undetected
+    m = match_all(pred, truth, 0.5, 0.5)
+    tight = error_causes(pred, truth, m, near_heights=0.5)
+    assert (tight["false_alarm_displaced"], tight["false_alarm_phantom"]) == (0, 2)
+    assert (tight["miss_displaced"], tight["miss_taken"], tight["miss_undetected"]) == (0, 0, 3)
 
 
 @pytest.mark.parametrize("n_pred,n_true", [(0, 0), (0, 3), (3, 0)])

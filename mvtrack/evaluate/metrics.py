@@ -26,6 +26,7 @@ __all__ = [
     "MaskScores",
     "Matches",
     "detection_scores",
+    "error_causes",
     "frame_matches",
     "idf1",
     "mask_scores",
@@ -102,6 +103,7 @@ class Matches:
     true_rows: np.ndarray  # global row indices into truth
     pred_counted: int  # predictions not matched to a don't-care truth row
     true_counted: int  # truth rows at least min_visible visible
+    pred_missed: np.ndarray  # global row indices into pred: the counted ones left unmatched
 
 
 def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
@@ -109,7 +111,7 @@ def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
     """Per-frame height-gated matching of every frame; only truth rows at least
     ``min_visible`` visible count (predictions matched to others are ignored)."""
     pred_by, true_by = pred.by_frame(), truth.by_frame()
-    pr, tr = [], []
+    pr, tr, missed = [], [], []
     pred_ignored = 0
     for frame, p_idx in pred_by.items():
         t_idx = true_by.get(frame, np.zeros(0, np.int64))
@@ -118,15 +120,19 @@ def match_all(pred: FrameRows, truth: FrameRows, gate_heights: float,
         counted = truth.visible[t_idx[j]] >= min_visible
         pred_ignored += int((~counted).sum())
         unmatched = np.delete(p_idx, i)
-        pred_ignored += int(_in_boxes(pred.feet[unmatched], truth.boxes_xywh[
-            t_idx[truth.visible[t_idx] < min_visible]]).sum())
+        ignored = _in_boxes(pred.feet[unmatched], truth.boxes_xywh[
+            t_idx[truth.visible[t_idx] < min_visible]])
+        pred_ignored += int(ignored.sum())
         pr.append(p_idx[i[counted]])
         tr.append(t_idx[j[counted]])
+        missed.append(unmatched[~ignored])
+    empty = np.zeros(0, np.int64)
     return Matches(
-        pred_rows=np.concatenate(pr) if pr else np.zeros(0, np.int64),
-        true_rows=np.concatenate(tr) if tr else np.zeros(0, np.int64),
+        pred_rows=np.concatenate(pr) if pr else empty,
+        true_rows=np.concatenate(tr) if tr else empty,
         pred_counted=len(pred.frames) - pred_ignored,
         true_counted=int((truth.visible >= min_visible).sum()),
+        pred_missed=np.sort(np.concatenate(missed)) if missed else empty,
     )
 
 
@@ -145,7 +151,7 @@ def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.
     """Recall, precision and feet error of per-frame predictions against truth (one camera).
 
     Feet error is over matched pairs: median and 90th percentile in px and as a fraction of
-    the truth height.
+    the truth height. The false alarms and misses by cause: :func:`error_causes`.
     """
     m = match_all(pred, truth, gate_heights, min_visible)
     hits = len(m.true_rows)
@@ -162,7 +168,59 @@ def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.
         "foot_error_px_p90": float(np.percentile(err, 90)) if hits else nan,
         "foot_error_height_median": float(np.median(rel)) if hits else nan,
         "foot_error_height_p90": float(np.percentile(rel, 90)) if hits else nan,
-    }
+    } | error_causes(pred, truth, m, min_visible)
+
+
+def error_causes(pred: FrameRows, truth: FrameRows, m: Matches, min_visible: float = 0.5,
+                 near_heights: float = 1.0) -> dict[str, int]:
+    """Why predictions were false alarms and truth rows were missed, in rows of ``m``
+    (:func:`match_all`); the first three add up to the false alarms, the last three to the
+    misses. Each looks at the nearest counted person (false alarms) or prediction (misses) of
+    the row's frame, within ``near_heights`` of the person's height:
+
+    - false_alarm_duplicate: that person is matched to another prediction: a second target on
+      one person (a leg or a head tracked apart, a target left on someone after its own
+      person went out of sight);
+    - false_alarm_displaced: that person is missed: the target is theirs but its feet are off
+      by more than the gate (legs lost, a cast shadow taken for legs, a group's feet);
+    - false_alarm_phantom: nobody that near (noise, a ghost, a person the truth leaves out);
+    - miss_displaced: that prediction is a false alarm (the other side of a displaced one);
+    - miss_taken: that prediction is matched to someone else: the person is inside another
+      person's target (one blob for people one behind the other, a merge given to one);
+    - miss_undetected: no prediction that near.
+    """
+    matched_pred = np.zeros(len(pred.frames), bool)
+    matched_pred[m.pred_rows] = True
+    matched_true = np.zeros(len(truth.frames), bool)
+    matched_true[m.true_rows] = True
+    counted = truth.visible >= min_visible
+    missed_true = np.flatnonzero(counted & ~matched_true)
+    pred_by, true_by = pred.by_frame(), truth.by_frame()
+    none = np.zeros(0, np.int64)
+    out = dict.fromkeys(("false_alarm_duplicate", "false_alarm_displaced", "false_alarm_phantom",
+                         "miss_displaced", "miss_taken", "miss_undetected"), 0)
+    for i in m.pred_missed:
+        people = true_by.get(int(pred.frames[i]), none)
+        people = people[counted[people]]
+        dist = np.linalg.norm(truth.feet[people] - pred.feet[i], axis=1) / np.maximum(
+            truth.heights[people], 1.0)
+        if not len(people) or dist.min() >= near_heights:
+            out["false_alarm_phantom"] += 1
+        elif matched_true[people[np.argmin(dist)]]:
+            out["false_alarm_duplicate"] += 1
+        else:
+            out["false_alarm_displaced"] += 1
+    for j in missed_true:
+        targets = pred_by.get(int(truth.frames[j]), none)
+        dist = np.linalg.norm(pred.feet[targets] - truth.feet[j], axis=1) / max(
+            float(truth.heights[j]), 1.0)
+        if not len(targets) or dist.min() >= near_heights:
+            out["miss_undetected"] += 1
+        elif matched_pred[targets[np.argmin(dist)]]:
+            out["miss_taken"] += 1
+        else:
+            out["miss_displaced"] += 1
+    return out
 
 
 def idf1(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
