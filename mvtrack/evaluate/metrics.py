@@ -184,7 +184,8 @@ def error_causes(pred: FrameRows, truth: FrameRows, m: Matches, min_visible: flo
     - false_alarm_displaced: that person is missed: the target is theirs but its feet are off
       by more than the gate (legs lost, a cast shadow taken for legs, a group's feet);
     - false_alarm_phantom: nobody that near (noise, a ghost, a person the truth leaves out);
-    - miss_displaced: that prediction is a false alarm (the other side of a displaced one);
+    - miss_displaced: that prediction is matched to nobody (mostly the other side of a
+      displaced false alarm);
     - miss_taken: that prediction is matched to someone else: the person is inside another
       person's target (one blob for people one behind the other, a merge given to one);
     - miss_undetected: no prediction that near.
