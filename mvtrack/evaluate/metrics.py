@@ -195,33 +195,32 @@ def error_causes(pred: FrameRows, truth: FrameRows, m: Matches, min_visible: flo
     matched_true = np.zeros(len(truth.frames), bool)
     matched_true[m.true_rows] = True
     counted = truth.visible >= min_visible
-    missed_true = np.flatnonzero(counted & ~matched_true)
     pred_by, true_by = pred.by_frame(), truth.by_frame()
     none = np.zeros(0, np.int64)
-    out = dict.fromkeys(("false_alarm_duplicate", "false_alarm_displaced", "false_alarm_phantom",
-                         "miss_displaced", "miss_taken", "miss_undetected"), 0)
+
+    def nearest(rows: np.ndarray, dist: np.ndarray, matched: np.ndarray) -> int:
+        """0: nobody within near_heights, 1: the nearest is matched, 2: it is not."""
+        if not len(rows) or dist.min() >= near_heights:
+            return 0
+        return 1 if matched[rows[np.argmin(dist)]] else 2
+
+    alarms, misses = [0, 0, 0], [0, 0, 0]
     for i in m.pred_missed:
         people = true_by.get(int(pred.frames[i]), none)
         people = people[counted[people]]
         dist = np.linalg.norm(truth.feet[people] - pred.feet[i], axis=1) / np.maximum(
             truth.heights[people], 1.0)
-        if not len(people) or dist.min() >= near_heights:
-            out["false_alarm_phantom"] += 1
-        elif matched_true[people[np.argmin(dist)]]:
-            out["false_alarm_duplicate"] += 1
-        else:
-            out["false_alarm_displaced"] += 1
-    for j in missed_true:
+        alarms[nearest(people, dist, matched_true)] += 1
+    for j in np.flatnonzero(counted & ~matched_true):
         targets = pred_by.get(int(truth.frames[j]), none)
         dist = np.linalg.norm(pred.feet[targets] - truth.feet[j], axis=1) / max(
             float(truth.heights[j]), 1.0)
-        if not len(targets) or dist.min() >= near_heights:
-            out["miss_undetected"] += 1
-        elif matched_pred[targets[np.argmin(dist)]]:
-            out["miss_taken"] += 1
-        else:
-            out["miss_displaced"] += 1
-    return out
+        misses[nearest(targets, dist, matched_pred)] += 1
+    return {
+        "false_alarm_duplicate": alarms[1], "false_alarm_displaced": alarms[2],
+        "false_alarm_phantom": alarms[0],
+        "miss_displaced": misses[2], "miss_taken": misses[1], "miss_undetected": misses[0],
+    }
 
 
 def idf1(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
