@@ -344,3 +344,37 @@ def test_transfer_errors_many_is_transfer_errors_per_homography() -> None:
         assert np.allclose(row[np.isfinite(ref)], ref[np.isfinite(ref)], rtol=1e-9)
     assert np.isinf(errors[3]).all() and errors[4, 0] > 1e300 and np.isfinite(errors[0]).all()
     assert transfer_errors_many(np.zeros((0, 3, 3)), pts_a, pts_b).shape == (0, 50)
+
+
+
+def test_refit_keeps_the_consensus_of_the_homography_in_use() -> None:
+    """Re-fitting as markers accumulate: RANSAC starts from the H in use, so unlucky samples
+    cannot replace it by a worse one. Markers lie along three walks (1.5 px noise in both
+    cameras), where four of them often fit an H that only holds near its walks; with three
+    draws, the p90 error on a grid of the cold fits ranges up to tens of px over twenty seeds,
+    the re-fits from the H in use stay within 2.5 px. RANSAC alone: the refinement on every
+    marker repairs these samples, but not all (generated 'three' seed 0, cam0-cam2: a re-fit
+    at frame 550 kept 14 of 21 inliers and went from 12 to 136 px p90)."""
+    H = np.array([[0.9, 0.12, 30], [-0.05, 1.1, 12], [1e-4, 4e-4, 1.0]])
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 1, 11)[:, None]
+    a = np.vstack([np.array([20, 40]) + t * [260, 30], np.array([60, 220]) + t * [40, -170],
+                   np.array([300, 200]) + t * [-200, 20]])
+    b = apply_homography(H, a) + rng.normal(0, 1.5, a.shape)
+    a = a + rng.normal(0, 1.5, a.shape)
+    grid = np.stack(np.meshgrid(np.arange(0, 320, 16), np.arange(0, 240, 16)), -1)
+    grid = grid.reshape(-1, 2).astype(np.float64)
+    in_use = dlt(a, b)
+    cfg = HomographyConfig(ransac_threshold_px=4.0, ransac_iterations=3, refine_scale=0.0)
+
+    def p90(est: HomographyEstimate | HomographyFailure) -> float:
+        if not isinstance(est, HomographyEstimate):
+            return np.nan  # a failure keeps the H in use: no harm
+        return float(np.percentile(np.linalg.norm(
+            apply_homography(est.H_b_from_a, grid) - apply_homography(H, grid), axis=1), 90))
+
+    warm = [p90(fit_homography(a, b, cfg, np.random.default_rng(s), previous=in_use))
+            for s in range(20)]
+    cold = [p90(fit_homography(a, b, cfg, np.random.default_rng(s))) for s in range(20)]
+    assert max(warm) < 2.5, warm
+    assert sum(e > 10.0 for e in cold) >= 5, cold

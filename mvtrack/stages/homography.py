@@ -350,12 +350,19 @@ def transfer_errors_many(
 
 
 def _ransac(
-    pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig, rng: np.random.Generator
+    pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig, rng: np.random.Generator,
+    start: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(N,) bool: the largest consensus set of RANSAC on the symmetric transfer error."""
+    """(N,) bool: the best consensus set (MSAC score) of RANSAC on the symmetric transfer
+    error; ``start``, an H to beat (the estimate being re-fitted), is scored first."""
     n = len(pts_a)
     best = np.zeros(n, bool)
     best_score = np.inf
+    if start is not None:
+        err = transfer_errors(start, pts_a, pts_b)
+        if (err < cfg.ransac_threshold_px).sum() >= 4:
+            best = err < cfg.ransac_threshold_px
+            best_score = float(np.minimum(err, cfg.ransac_threshold_px).sum())
     for _ in range(cfg.ransac_iterations):
         sample = rng.choice(n, size=4, replace=False)
         if spread(pts_a[sample])[0] < 1e-3 or spread(pts_b[sample])[0] < 1e-3:
@@ -437,13 +444,15 @@ def _groups_problem(groups: np.ndarray | None, inliers: np.ndarray, cfg: Homogra
     return ""
 
 
-def fit_homography(
+def fit_homography(  # noqa: PLR0913 (the markers, the settings, and what is known of them)
     pts_a: np.ndarray,
     pts_b: np.ndarray,
     cfg: HomographyConfig,
     rng: np.random.Generator | None = None,
+    *,
     groups: np.ndarray | None = None,
     heights: tuple[float, float] | None = None,
+    previous: np.ndarray | None = None,
 ) -> HomographyEstimate | HomographyFailure:
     """H_b_from_a from markers (pts_a[i] ↔ pts_b[i], each (N, 2) float64 px).
 
@@ -455,8 +464,10 @@ def fit_homography(
     again to the inliers. ``groups`` (N,) int: which target pair (link) dropped each marker;
     the inliers must then come from at least ``cfg.min_marker_groups`` of them (the markers
     of one or two straight walks can be fitted by a wrong H). ``heights``: see
-    :func:`degeneracy_reason`. Returns a falsy :class:`HomographyFailure` when no trustworthy
-    H exists.
+    :func:`degeneracy_reason`. ``previous``: the H in use when re-fitting as markers
+    accumulate; RANSAC must beat its consensus on the new markers (a re-fit whose samples miss
+    the consensus the old H already explains would otherwise replace a good H by a worse one).
+    Returns a falsy :class:`HomographyFailure` when no trustworthy H exists.
     """
     pts_a, pts_b = _as_points(pts_a, "pts_a"), _as_points(pts_b, "pts_b")
     if len(pts_a) != len(pts_b):
@@ -472,7 +483,8 @@ def fit_homography(
         return HomographyFailure(reason, n)
     inliers = np.ones(n, bool)
     if cfg.method == "robust":
-        inliers = _ransac(pts_a, pts_b, cfg, rng or np.random.default_rng(cfg.ransac_seed))
+        inliers = _ransac(pts_a, pts_b, cfg, rng or np.random.default_rng(cfg.ransac_seed),
+                          previous)
         if inliers.sum() < 4:
             return HomographyFailure("RANSAC found no consensus", n)
         inliers = _local_optimization(pts_a, pts_b, inliers, cfg.ransac_threshold_px)

@@ -633,7 +633,10 @@ def _maybe_fit(
     rng = np.random.default_rng([cfg.ransac_seed, frame])
     groups = marker_groups(markers)
     heights = (float(np.median(h_ab[:, 0])), float(np.median(h_ab[:, 1])))
-    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups, heights), from_frame=frame)
+    previous = current.H_b_from_a if isinstance(current, HomographyEstimate) else None
+    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups=groups, heights=heights,
+                                     previous=previous),
+                      from_frame=frame)
     return (attempt if attempt or not current else current), attempt
 
 
