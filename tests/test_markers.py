@@ -13,6 +13,8 @@ from mvtrack.stages.markers import (
     Candidates,
     Comotion,
     Marker,
+    _draw_samples,
+    _PairIndex,
     candidates_add,
     comotion_confirm,
     comotion_draws,
@@ -250,7 +252,9 @@ def test_markers_add_keeps_one_per_cell() -> None:
 
 
 # --- The batched co-motion search gives the answer of the one-sample-at-a-time reference ----
-# The reference is comotion_search as it was before batching (commit 44f4747), verbatim.
+# The reference is comotion_search as it was before batching (commit 44f4747), verbatim but
+# for its samples: it takes the production draws (_draw_samples, vectorized since), so that
+# what is compared is the batched evaluation of the same samples.
 
 
 def _ref_one_to_one(pairs, n_in, ok):
@@ -260,15 +264,6 @@ def _ref_one_to_one(pairs, n_in, ok):
         if all(pa != x and pb != y for x, y in chosen):
             chosen.append((pa, pb))
     return chosen
-
-
-def _ref_two_link_sample(eligible, pairs, rows_of, rng):
-    if len(eligible) < 2:
-        return None
-    i, j = rng.choice(eligible, size=2, replace=False)
-    if pairs[i, 0] == pairs[j, 0] or pairs[i, 1] == pairs[j, 1]:
-        return None
-    return np.r_[rng.choice(rows_of[i], 2, replace=False), rng.choice(rows_of[j], 2, replace=False)]
 
 
 def _ref_support(pool, H, cfg, errors):
@@ -289,15 +284,9 @@ def _ref_support(pool, H, cfg, errors):
 def _ref_search(pool, cfg, fit, errors, rng):
     if len(pool) < 4:
         return None
-    pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
-    inverse = inverse.ravel()
-    n_all = np.bincount(inverse, None, len(pairs))
-    rows_of = [np.flatnonzero(inverse == k) for k in range(len(pairs))]
-    eligible = np.flatnonzero(n_all >= max(cfg.comotion_min_support, 2))
     best = None
-    for _ in range(comotion_draws(cfg, len(eligible))):
-        sample = _ref_two_link_sample(eligible, pairs, rows_of, rng)
-        H = None if sample is None else fit(pool.x_a[sample], pool.x_b[sample])
+    for sample in _draw_samples(_PairIndex.of_pool(pool), cfg, rng):
+        H = fit(pool.x_a[sample], pool.x_b[sample])
         if H is None:
             continue
         chosen, rows = _ref_support(pool, H, cfg, errors)
@@ -405,6 +394,27 @@ def test_comotion_search_draws_more_in_a_crowd() -> None:
     assert comotion_draws(scaled, 140) == math.ceil(0.5 * 140 * 139 / 2)
     assert comotion_draws(scaled, 40) == 390  # 0.5 x 780 combinations
     assert comotion_draws(scaled, 10) == 150  # few pairs: comotion_iterations
+
+
+def test_comotion_draws_are_two_candidates_of_two_pairs_sharing_no_label() -> None:
+    """Every sample holds two distinct candidates of each of two label pairs that share no
+    label, and the draws reach every eligible pair about equally often."""
+    pool = _scene_pool("walks", 4)
+    index = _PairIndex.of_pool(pool)
+    cfg = MarkerConfig(comotion_iterations=20000)
+    samples = _draw_samples(index, cfg, np.random.default_rng(0))
+    assert 10000 < len(samples) <= 20000
+    labels = pool.labels[samples]  # (S, 4, 2)
+    assert (labels[:, 0] == labels[:, 1]).all() and (labels[:, 2] == labels[:, 3]).all()
+    assert (samples[:, 0] != samples[:, 1]).all() and (samples[:, 2] != samples[:, 3]).all()
+    assert (labels[:, 0] != labels[:, 2]).all(axis=1).all()
+    eligible = index.n >= cfg.comotion_min_support
+    drawn = np.bincount(index.of[samples[:, [0, 2]]].ravel(), minlength=len(index.pairs))
+    assert (drawn[~eligible] == 0).all()
+    share = drawn[eligible] / drawn[eligible].mean()
+    assert 0.8 < share.min() and share.max() < 1.2, share
+    assert len(_draw_samples(index, MarkerConfig(comotion_min_support=100000),
+                             np.random.default_rng(0))) == 0
 
 
 def test_batched_comotion_search_matches_on_tiny_and_looser_settings() -> None:

@@ -354,24 +354,28 @@ def _draw_samples(index: _PairIndex, cfg: MarkerConfig, rng: np.random.Generator
 
     Two candidates of each of two label pairs that share no label; drawing whole target pairs
     (not single candidates) makes a correct sample likely even when most candidates are
-    wrong: it needs two true pairs, not four true candidates. The ``rng`` calls are those of
-    :func:`comotion_draws` draws one after the other (the results depend on nothing else).
+    wrong: it needs two true pairs, not four true candidates. All :func:`comotion_draws` draws
+    are made at once, with the same ``rng`` calls whatever the pool holds (a loop of
+    ``rng.choice`` calls took two thirds of a 15000-draw search).
     """
     eligible = np.flatnonzero(index.n >= max(cfg.comotion_min_support, 2))
     if len(eligible) < 2:
         return np.zeros((0, 4), np.int64)
-    label_a, label_b = index.pairs[:, 0].tolist(), index.pairs[:, 1].tolist()
     draws = comotion_draws(cfg, len(eligible))
-    out = np.empty((draws, 4), np.int64)
-    s = 0
-    for _ in range(draws):
-        i, j = rng.choice(eligible, size=2, replace=False).tolist()
-        if label_a[i] == label_a[j] or label_b[i] == label_b[j]:
-            continue
-        out[s, :2] = rng.choice(index.rows[i], 2, replace=False)
-        out[s, 2:] = rng.choice(index.rows[j], 2, replace=False)
-        s += 1
-    return out[:s]
+    first = rng.integers(0, len(eligible), draws)
+    second = rng.integers(0, len(eligible) - 1, draws)
+    i, j = eligible[first], eligible[second + (second >= first)]  # two distinct pairs
+    keep = (index.pairs[i, 0] != index.pairs[j, 0]) & (index.pairs[i, 1] != index.pairs[j, 1])
+    rows = np.concatenate(index.rows)
+    starts = np.cumsum(index.n) - index.n
+
+    def two_of(pair: np.ndarray) -> np.ndarray:  # two distinct candidate rows of each pair
+        one = (rng.random(draws) * index.n[pair]).astype(np.int64)
+        other = (rng.random(draws) * (index.n[pair] - 1)).astype(np.int64)
+        other += other >= one
+        return np.stack([rows[starts[pair] + one], rows[starts[pair] + other]], axis=1)
+
+    return np.concatenate([two_of(i), two_of(j)], axis=1)[keep]
 
 
 def _pair_support(
