@@ -52,6 +52,27 @@ def test_id_swap_halfway_halves_idf1() -> None:
     assert idf1(pred, truth)["idf1"] == pytest.approx(0.5)
 
 
+def test_what_idf1_lacks_splits_into_detection_and_identity_losses() -> None:
+    """Two people for 10 frames (40 rows with the predictions). Person 1's label swaps with
+    person 2's for frames 8-9 (4 matched rows under the other id) and person 2 is missed in
+    frames 0-2 (3 truth rows unmatched), plus one phantom (1 prediction unmatched): IDF1 =
+    2 x 13 / 38, identity loss 2 x 4 / 38, detection loss 4 / 38, the three summing to 1."""
+    truth = truth_two_people(10)
+    keep = ~((truth.ids == 2) & (truth.frames <= 2))
+    ids = truth.ids[keep].copy()
+    frames, feet = truth.frames[keep], truth.feet[keep]
+    late = frames >= 8
+    ids[late] = 3 - ids[late]
+    pred = FrameRows.of(np.r_[frames, 5], np.r_[ids, 7], np.r_[feet, [[150.0, 20.0]]])
+    s = idf1(pred, truth)
+    counted = 20 + 18
+    assert s["idtp"] == 13.0
+    assert s["idf1"] == pytest.approx(2 * 13 / counted)
+    assert s["loss_identity"] == pytest.approx(2 * 4 / counted)
+    assert s["loss_detection"] == pytest.approx((3 + 1) / counted)
+    assert s["idf1"] + s["loss_identity"] + s["loss_detection"] == pytest.approx(1.0)
+
+
 def test_fragmented_track_counts_only_longest_piece() -> None:
     truth = truth_two_people(10)
     ids = truth.ids.copy()

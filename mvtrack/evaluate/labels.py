@@ -2,7 +2,10 @@
 
 From the clip's truth and a run's `tracks.csv` (and `cues.csv`):
 
-- ``idf1_global``: IDF1 of ``meta`` against truth people, every camera's rows together;
+- ``idf1_global``: IDF1 of ``meta`` against truth people, every camera's rows together, and
+  what it lacks of 1 split into ``idf1_global_loss_detection`` (rows the per-frame matching
+  left unmatched: the front end) and ``idf1_global_loss_identity`` (matched rows under
+  another person's ``meta``: the labels);
 - ``consistency``: of the (frame, person) pairs matched in two or more cameras, the share whose
   targets all carry one ``meta``; ``consistency_by_pair``: the same for each two cameras ("a-b":
   share and count), which tells the pair that fails when there are more than two;
@@ -266,7 +269,9 @@ def label_metrics(truth: Truth, rows: TrackRows, frames: range, cues: CueRows | 
     m = match_rows(truth, rows, cameras, frames, cfg)
     g = _global_idf1(truth, rows, cameras, frames, cfg)
     out: dict[str, Any] = {"idf1_global": g["idf1"], "idp_global": g["idp"],
-                           "idr_global": g["idr"], "cameras": cameras}
+                           "idr_global": g["idr"],
+                           "idf1_global_loss_detection": g["loss_detection"],
+                           "idf1_global_loss_identity": g["loss_identity"], "cameras": cameras}
     out |= _consistency(m, cameras) | _fragmentation(m)
     out |= _occlusion_recovery(m, _visible_sets(truth, cameras, frames, cfg), cfg)
     if cues is not None:

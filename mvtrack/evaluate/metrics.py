@@ -231,22 +231,32 @@ def idf1(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.5,
     ``frame * n_cameras + camera_index``) for a global IDF1 of cross-camera labels.
     The per-frame matches decide which (pred id, truth id) pairs co-occur; the id-to-id
     assignment that maximizes co-occurrences gives IDTP.
+
+    What IDF1 lacks of 1 splits in two (the three add up to 1): ``loss_detection``, the
+    counted truth and predicted rows the per-frame matching left unmatched, and
+    ``loss_identity``, the matched rows whose pred id is not the one assigned to their truth
+    id (each counts twice, as a miss and a false alarm of IDF1), both over truth + pred rows.
     """
     m = match_all(pred, truth, gate_heights, min_visible)
     nan = float("nan")
-    if m.true_counted + m.pred_counted == 0:
-        return {"idf1": nan, "idp": nan, "idr": nan, "idtp": 0}
+    counted = m.true_counted + m.pred_counted
+    if counted == 0:
+        return {"idf1": nan, "idp": nan, "idr": nan, "idtp": 0, "loss_detection": nan,
+                "loss_identity": nan}
     p_ids, p_inv = np.unique(pred.ids[m.pred_rows], return_inverse=True)
     t_ids, t_inv = np.unique(truth.ids[m.true_rows], return_inverse=True)
     co = np.zeros((len(p_ids), len(t_ids)))
     np.add.at(co, (p_inv, t_inv), 1.0)
     rows, cols = linear_sum_assignment(-co) if co.size else (np.zeros(0, int), np.zeros(0, int))
     idtp = float(co[rows, cols].sum())
+    matched = len(m.true_rows)
     return {
-        "idf1": 2 * idtp / (m.true_counted + m.pred_counted),
+        "idf1": 2 * idtp / counted,
         "idp": idtp / m.pred_counted if m.pred_counted else nan,
         "idr": idtp / m.true_counted if m.true_counted else nan,
         "idtp": idtp,
+        "loss_detection": (counted - 2 * matched) / counted,
+        "loss_identity": 2 * (matched - idtp) / counted,
     }
 
 
