@@ -36,7 +36,8 @@ __all__ = [
     "run_sweep", "summary_row", "variant_means", "write_tables",
 ]
 
-COLUMNS = ("idf1", "consistency", "idf1_online", "recall_min", "precision_min",
+COLUMNS = ("idf1", "idf1_loss_identity", "consistency", "idf1_online", "recall_min",
+           "precision_min",
            "foot_median_px_max", "h_median_px_max", "h_p90_px_max", "h_first_frame_max",
            "pairs_without_h", "fov_line_px_max", "occlusion_recovery")
 """The figures of a run (:func:`summary_row`), in table order."""
@@ -261,10 +262,11 @@ def _pool(jobs: int) -> Iterator[ProcessPoolExecutor]:
 
 def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
     """The :data:`COLUMNS` figures of one `metrics.json` (None where the run has none):
-    labels (resolved and online), the worst camera's recall, precision and median foot
-    error, the worst pair's transfer error (median, p90) and first valid H frame over the
-    pairs that have one, how many pairs have none, the worst learned FOV line's mean error
-    (lines seen over at least 40 px) and occlusion recovery."""
+    labels (resolved, with the share of IDF1 lost to identity, and online), the worst
+    camera's recall, precision and median foot error, the worst pair's transfer error
+    (median, p90) and first valid H frame over the pairs that have one, how many pairs have
+    none, the worst learned FOV line's mean error (lines seen over at least 40 px) and
+    occlusion recovery."""
     cams = list(metrics.get("cameras", {}).values())
     labels = metrics.get("labels", {})
     online = metrics.get("labels_online", {})
@@ -276,6 +278,7 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
              and ln.get("error_px_mean") is not None]
     return {
         "idf1": _known(labels.get("idf1_global")),
+        "idf1_loss_identity": _known(labels.get("idf1_global_loss_identity")),
         "consistency": _known(labels.get("consistency")),
         "idf1_online": _known(online.get("idf1_global")),
         "recall_min": _worst(min, [c.get("recall") for c in cams]),

@@ -58,7 +58,8 @@ def _metrics(idf1: float, p90: float | None) -> dict:
     return {
         "cameras": {"cam0": {"recall": 0.96, "precision": 0.94, "foot_error_px_median": 3.6},
                     "cam1": {"recall": 0.93, "precision": 0.97, "foot_error_px_median": 2.5}},
-        "labels": {"idf1_global": idf1, "consistency": 0.99, "occlusion_recovery": math.nan},
+        "labels": {"idf1_global": idf1, "idf1_global_loss_identity": 0.01, "consistency": 0.99,
+                   "occlusion_recovery": math.nan},
         "labels_online": {"idf1_global": 0.8},
         "pairs": [pair_h, no_h],
     }
@@ -68,6 +69,7 @@ def test_summary_row_takes_the_worst_camera_and_pair() -> None:
     row = summary_row(_metrics(0.944, 4.5))
     assert list(row) == list(COLUMNS)
     assert row["idf1"] == 0.944 and row["idf1_online"] == 0.8
+    assert row["idf1_loss_identity"] == 0.01
     assert (row["recall_min"], row["precision_min"], row["foot_median_px_max"]) == (
         0.93, 0.94, 3.6)
     assert (row["h_median_px_max"], row["h_p90_px_max"], row["h_first_frame_max"]) == (
