@@ -563,9 +563,9 @@ class MarkerConfig(_Checked):
     comotion_threshold_heights: float = param(
         0.3, "bootstrap: inlier error may reach this fraction of the pair's mean height", 0.0, 10.0
     )
-    # A right sample needs two true target pairs: with 20-40 eligible pairs of which 3-5 are
-    # true, 1500 draws often missed it for a search or two (generated 'tilted' s1: first H at
-    # frame 425; 'one_edge' s2 and 'crowd' s2 kept homographies of 45 and 20 px p90). 24 sweep
+    # With 20-40 eligible target pairs of which 3-5 are true, 1500 draws often missed every
+    # right sample for a search or two (generated 'tilted' s1: first H at frame 425;
+    # 'one_edge' s2 and 'crowd' s2 kept homographies of 45 and 20 px p90). 24 sweep
     # clips x draws 0-2, 1500 -> 15000: mean IDF1 0.932/0.933/0.923 -> 0.933/0.934/0.934,
     # consistency 0.985/0.985/0.942 -> 0.988/0.989/0.990, mean first-H frame 257/258/233 ->
     # 230/229/236, median worst-pair p90 6.9/6.4/7.0 -> 6.6/6.0/6.0 px (with the re-fit's

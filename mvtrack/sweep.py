@@ -37,9 +37,8 @@ __all__ = [
 ]
 
 COLUMNS = ("idf1", "idf1_loss_identity", "consistency", "idf1_online", "recall_min",
-           "precision_min",
-           "foot_median_px_max", "h_median_px_max", "h_p90_px_max", "h_first_frame_max",
-           "pairs_without_h", "fov_line_px_max", "occlusion_recovery")
+           "precision_min", "foot_median_px_max", "h_median_px_max", "h_p90_px_max",
+           "h_first_frame_max", "pairs_without_h", "fov_line_px_max", "occlusion_recovery")
 """The figures of a run (:func:`summary_row`), in table order."""
 
 
