@@ -346,7 +346,6 @@ def test_transfer_errors_many_is_transfer_errors_per_homography() -> None:
     assert transfer_errors_many(np.zeros((0, 3, 3)), pts_a, pts_b).shape == (0, 50)
 
 
-
 def test_refit_keeps_the_consensus_of_the_homography_in_use() -> None:
     """Re-fitting as markers accumulate: RANSAC starts from the H in use, so unlucky samples
     cannot replace it by a worse one. Markers lie along three walks (1.5 px noise in both

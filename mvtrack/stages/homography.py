@@ -13,6 +13,7 @@ under a robust loss (``"robust"``). An estimate that cannot be made is a falsy
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
@@ -355,21 +356,9 @@ def _ransac(
 ) -> np.ndarray:
     """(N,) bool: the best consensus set (MSAC score) of RANSAC on the symmetric transfer
     error; ``start``, an H to beat (the estimate being re-fitted), is scored first."""
-    n = len(pts_a)
-    best = np.zeros(n, bool)
+    best = np.zeros(len(pts_a), bool)
     best_score = np.inf
-    if start is not None:
-        err = transfer_errors(start, pts_a, pts_b)
-        if (err < cfg.ransac_threshold_px).sum() >= 4:
-            best = err < cfg.ransac_threshold_px
-            best_score = float(np.minimum(err, cfg.ransac_threshold_px).sum())
-    for _ in range(cfg.ransac_iterations):
-        sample = rng.choice(n, size=4, replace=False)
-        if spread(pts_a[sample])[0] < 1e-3 or spread(pts_b[sample])[0] < 1e-3:
-            continue
-        H = dlt(pts_a[sample], pts_b[sample])
-        if _matrix_problem(H, pts_a[sample]):
-            continue
+    for H in _hypotheses(pts_a, pts_b, cfg, rng, start):
         err = transfer_errors(H, pts_a, pts_b)
         inliers = err < cfg.ransac_threshold_px
         # MSAC score: inliers cost their error, outliers the threshold.
@@ -377,6 +366,23 @@ def _ransac(
         if inliers.sum() >= 4 and score < best_score:
             best, best_score = inliers, score
     return best
+
+
+def _hypotheses(
+    pts_a: np.ndarray, pts_b: np.ndarray, cfg: HomographyConfig, rng: np.random.Generator,
+    start: np.ndarray | None,
+) -> Iterator[np.ndarray]:
+    """``start`` (when given), then the DLT of each of ``ransac_iterations`` random
+    four-marker samples that are not degenerate."""
+    if start is not None:
+        yield start
+    for _ in range(cfg.ransac_iterations):
+        sample = rng.choice(len(pts_a), size=4, replace=False)
+        if spread(pts_a[sample])[0] < 1e-3 or spread(pts_b[sample])[0] < 1e-3:
+            continue
+        H = dlt(pts_a[sample], pts_b[sample])
+        if not _matrix_problem(H, pts_a[sample]):
+            yield H
 
 
 _LO_ROUNDS = 20

@@ -322,20 +322,25 @@ def _one_to_one(
 @dataclass(frozen=True)
 class _PairIndex:
     """The pool's distinct label pairs: pairs (K, 2) int64, sorted; of (P,) int64, each
-    candidate's pair; n (K,) int64, candidates per pair; rows [K arrays], their rows."""
+    candidate's pair; n (K,) int64, candidates per pair; order (P,) int64, the candidate rows
+    grouped by pair, pair k's from starts[k] (K,) int64 on (:meth:`rows`)."""
 
     pairs: np.ndarray
     of: np.ndarray
     n: np.ndarray
-    rows: list[np.ndarray]
+    order: np.ndarray
+    starts: np.ndarray
 
     @classmethod
     def of_pool(cls, pool: Candidates) -> _PairIndex:
         pairs, inverse = np.unique(pool.labels, axis=0, return_inverse=True)
         inverse = inverse.ravel()
-        order = np.argsort(inverse, kind="stable")
         n = np.bincount(inverse, None, len(pairs))
-        return cls(pairs, inverse, n, np.split(order, np.cumsum(n)[:-1]) if len(n) else [])
+        return cls(pairs, inverse, n, np.argsort(inverse, kind="stable"), np.cumsum(n) - n)
+
+    def rows(self, k: int) -> np.ndarray:
+        """(n[k],) int64: the candidate rows of pair k."""
+        return self.order[self.starts[k] : self.starts[k] + self.n[k]]
 
 
 def comotion_draws(cfg: MarkerConfig, eligible: int) -> int:
@@ -366,14 +371,13 @@ def _draw_samples(index: _PairIndex, cfg: MarkerConfig, rng: np.random.Generator
     second = rng.integers(0, len(eligible) - 1, draws)
     i, j = eligible[first], eligible[second + (second >= first)]  # two distinct pairs
     keep = (index.pairs[i, 0] != index.pairs[j, 0]) & (index.pairs[i, 1] != index.pairs[j, 1])
-    rows = np.concatenate(index.rows)
-    starts = np.cumsum(index.n) - index.n
 
     def two_of(pair: np.ndarray) -> np.ndarray:  # two distinct candidate rows of each pair
         one = (rng.random(draws) * index.n[pair]).astype(np.int64)
         other = (rng.random(draws) * (index.n[pair] - 1)).astype(np.int64)
         other += other >= one
-        return np.stack([rows[starts[pair] + one], rows[starts[pair] + other]], axis=1)
+        begin = index.starts[pair]
+        return np.stack([index.order[begin + one], index.order[begin + other]], axis=1)
 
     return np.concatenate([two_of(i), two_of(j)], axis=1)[keep]
 
@@ -609,7 +613,8 @@ def _refit_confirm(
     gates = pool.gates_px(cfg)
     best: tuple[np.ndarray, list[tuple[int, int]], np.ndarray] | None = None
     for k, (a_label, b_label) in enumerate(index.pairs.tolist()):
-        rows = index.rows[k][new[index.rows[k]]]
+        mine = index.rows(k)
+        rows = mine[new[mine]]
         if a_label in used_a or b_label in used_b or len(rows) < cfg.comotion_confirm_support:
             continue
         H = fit(np.r_[x_a, pool.x_a[rows]], np.r_[x_b, pool.x_b[rows]])
