@@ -570,7 +570,9 @@ class MarkerConfig(_Checked):
     # consistency 0.985/0.985/0.942 -> 0.988/0.989/0.990, mean first-H frame 257/258/233 ->
     # 230/229/236, median worst-pair p90 6.9/6.4/7.0 -> 6.6/6.0/6.0 px (with the re-fit's
     # warm start, homography.py; without it a later re-fit could lose the consensus). A
-    # search takes about 0.2 s at 15000 draws; 5000 helped only some draws.
+    # search takes about 0.2 s at 15000 draws, every comotion_every_frames until a first H:
+    # `mvtrack bench`'s pairs stage (150 frames, no H yet) 2.6 -> 7.2 ms per frame set.
+    # 5000 draws helped only some draws.
     comotion_iterations: int = param(
         15000, "bootstrap: RANSAC samples (two candidates of two target pairs) per search", 1,
         1000000,
