@@ -11,6 +11,7 @@ from collections import defaultdict
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 import pytest
 import rerun.blueprint as rrb
@@ -24,7 +25,7 @@ from mvtrack.params import Params, load_params
 from mvtrack.viz import paths
 from mvtrack.viz.bench import bench_logging
 from mvtrack.viz.cli import app
-from mvtrack.viz.colors import meta_color
+from mvtrack.viz.colors import PALETTE_SIZE, meta_color
 from mvtrack.viz.log import line_strip_in_frame, metas_image
 from mvtrack.viz.outputs import Target, open_outputs
 from mvtrack.viz.session import record_run
@@ -352,10 +353,14 @@ def test_unknown_layout_names_the_choices() -> None:
 
 def test_meta_colours_are_stable_distinct_and_readable() -> None:
     assert meta_color(7) == meta_color(7)
-    cols = np.array([meta_color(m) for m in range(1, 31)], float)
-    d = np.linalg.norm(cols[:, None] - cols[None], axis=2) + np.eye(30) * 1e9
-    assert d.min() > 25.0  # no two of the first 30 metas look alike
-    assert (cols.max(axis=1) >= 120).all()  # light enough for labels on a dark background
+    assert meta_color(3) == meta_color(3 + PALETTE_SIZE)  # the palette cycles
+    ids = range(0, PALETTE_SIZE + 1)  # meta 0 (none, gray) and one full cycle
+    rgb = np.array([[meta_color(m) for m in ids]], np.uint8)
+    lab = cv2.cvtColor(rgb, cv2.COLOR_RGB2Lab)[0].astype(float)
+    lab[:, 0] *= 100 / 255
+    delta_e = np.linalg.norm(lab[:, None] - lab[None], axis=2) + np.eye(len(ids)) * 1e9
+    assert delta_e.min() > 25.0  # no two metas of a cycle, nor one and the gray, look alike
+    assert delta_e[7, 15] > 25.0  # the golden-ratio hues made these two the same green (5.6)
     many = np.array([meta_color(m) for m in range(1, 200)], float) / 255.0
     assert (many @ [0.2126, 0.7152, 0.0722] >= 0.25).all()  # no dark blue label text
 

@@ -1,18 +1,25 @@
 """One colour per ``meta`` id, the same in every camera, every view and every run.
 
-The colour is a pure function of the id (golden-ratio hue steps, two lightness levels), so a
-person keeps their colour across cameras and across ``--watch`` re-runs.
+The colour is a pure function of the id (a fixed palette of :data:`PALETTE_SIZE` colours, meta
+m takes entry (m - 1) mod size), so a person keeps their colour across cameras and across
+``--watch`` re-runs. The palette is picked by farthest-point sampling in CIELAB, so any two of
+its colours differ by more than 25 (Delta E 1976): golden-ratio hue steps, used before, made
+metas m and m + 8 the same green (Delta E 5.6).
 """
 
 from __future__ import annotations
 
 import colorsys
+from functools import cache
 
+import cv2
 import numpy as np
 
-__all__ = ["MASK_COLORS", "camera_color", "meta_color", "meta_colors"]
+__all__ = ["MASK_COLORS", "PALETTE_SIZE", "camera_color", "meta_color", "meta_colors"]
 
-_GOLDEN = 0.618033988749895
+PALETTE_SIZE = 32
+"""Distinct meta colours; metas m and m + PALETTE_SIZE share one."""
+_NO_META = (128, 128, 128)
 _MIN_LUMINANCE = 0.25  # meta colours at least this bright: dark blue label text was unreadable
 
 MASK_COLORS = {
@@ -27,14 +34,34 @@ MASK_COLORS = {
 def meta_color(meta: int) -> tuple[int, int, int]:
     """RGB uint8 colour of a meta id (>= 1); meta 0 (no meta) is gray."""
     if meta <= 0:
-        return (128, 128, 128)
-    hue = (meta * _GOLDEN) % 1.0
-    light = 0.62 if meta % 2 else 0.52
-    r, g, b = colorsys.hls_to_rgb(hue, light, 0.85)
-    while _luminance((r, g, b)) < _MIN_LUMINANCE and light < 0.8:  # blues and purples
-        light += 0.02  # lighter until label text reads on the viewer's dark label background
-        r, g, b = colorsys.hls_to_rgb(hue, light, 0.85)
-    return (round(255 * r), round(255 * g), round(255 * b))
+        return _NO_META
+    return _palette()[(meta - 1) % PALETTE_SIZE]
+
+
+@cache
+def _palette() -> tuple[tuple[int, int, int], ...]:
+    """:data:`PALETTE_SIZE` colours far apart in CIELAB and from the no-meta gray.
+
+    Candidates: 72 hues x 4 lightness levels x 2 saturations (HLS), those bright enough for
+    label text on the viewer's dark label background (luminance >= ``_MIN_LUMINANCE``: dark
+    blue text was unreadable). Greedy farthest-point sampling, seeded with the gray, so the
+    first metas (most often on screen together) are the most distinct.
+    """
+    rgb = [colorsys.hls_to_rgb(h / 72, light, sat)
+           for h in range(72) for light in (0.42, 0.52, 0.62, 0.72) for sat in (0.85, 0.5)]
+    rgb = [c for c in rgb if _luminance(c) >= _MIN_LUMINANCE]
+    cand = np.round(255 * np.array(rgb)).astype(np.uint8)
+    lab = cv2.cvtColor(cand[None], cv2.COLOR_RGB2Lab)[0].astype(np.float64)
+    lab[:, 0] *= 100 / 255  # 8-bit Lab: L scaled to 0..255, a and b offset by 128
+    gray = cv2.cvtColor(np.array([[_NO_META]], np.uint8), cv2.COLOR_RGB2Lab)[0].astype(np.float64)
+    gray[:, 0] *= 100 / 255
+    nearest = np.linalg.norm(lab - gray, axis=1)
+    picked = []
+    for _ in range(PALETTE_SIZE):
+        k = int(np.argmax(nearest))
+        picked.append(k)
+        nearest = np.minimum(nearest, np.linalg.norm(lab - lab[k], axis=1))
+    return tuple((int(r), int(g), int(b)) for r, g, b in cand[picked])
 
 
 def _luminance(rgb: tuple[float, float, float]) -> float:
