@@ -328,6 +328,33 @@ def _walkers_seen_twice(frame: int, people: list[int]) -> tuple[CameraTargets, C
     return a, b
 
 
+@pytest.mark.parametrize("people, in_turn, kept",
+                         [([9], True, True), ([9, 10], True, False), ([9], False, False)])
+def test_one_person_unseen_in_turn_by_each_camera_is_one_miss(people: list[int], in_turn: bool,
+                                                             kept: bool) -> None:
+    """A correct H; each person is first seen by A only, then by B only (outside the other
+    camera's frame where H extrapolates, or behind an occluder: generated 'pillar' seed 5
+    lost a 4.6 px H so at frame 591). One person is two missing targets, one per camera, but
+    one miss: with ``verify_min_targets`` 2 the H stays for one person and goes for two. Seen
+    by both at once but 60 px from where H puts them, one person's two misses count twice."""
+    cfg = PairConfigs()
+    cfg = replace(cfg, homography=replace(cfg.homography, verify_min_targets=2))
+    H = np.array([[1.0, 0, 200.0], [0, 1, 10.0], [0, 0, 1]])
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    state = replace(state, homography=HomographyEstimate(H, "dlt", 10, np.ones(10, bool),
+                                                         np.zeros(10), 0.0, 0))
+    for f in range(1, 90):
+        a, b = _walkers_seen_twice(f, people)
+        if not in_turn:
+            b = replace(b, feet=b.feet + [60, 0], boxes_xywh=b.boxes_xywh + [60, 0, 0, 0])
+        elif f <= 45:
+            b = CameraTargets.empty((640, 480))
+        else:
+            a = CameraTargets.empty((640, 480))
+        state, _ = pair_step(state, a, b, cfg, f)
+    assert bool(state.homography) == kept
+
+
 def test_a_held_swap_does_not_block_the_true_pairing() -> None:
     """Two people walking alike first fit a swapped pairing; after they leave, nothing can
     confirm or reject it. People who arrive later follow the true pairing, which a new search
@@ -507,4 +534,4 @@ def test_one_target_the_other_camera_never_sees_does_not_drop_h(min_targets: int
         state, _ = pair_step(state, a, b, cfg, f)
     assert bool(state.homography) == kept
     if not kept:
-        assert "(1 targets missed)" in state.homography.reason
+        assert "(misses from at least 1 people)" in state.homography.reason

@@ -22,6 +22,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+from scipy.optimize import linear_sum_assignment
 
 from mvtrack.params import FovConfig, HomographyConfig, MarkerConfig, Params
 from mvtrack.stages import fov
@@ -578,15 +579,36 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
 
 def _missing(checks: tuple[Check, ...], min_frac: float, cfg: HomographyConfig) -> str:
     """Why ``checks`` condemn H ("" when they do not): at least ``verify_min_expected``
-    projections, under ``min_frac`` of them found, misses from ``verify_min_targets`` targets."""
+    projections, under ``min_frac`` of them found, misses from ``verify_min_targets`` people
+    (:func:`_fewest_people`)."""
     expected = sum(e for e, _, _ in checks)
     found = sum(f for _, f, _ in checks)
-    missing = {key for _, _, missed in checks for key in missed}
+    people = _fewest_people(checks)
     if (expected >= cfg.verify_min_expected and found < min_frac * expected
-            and len(missing) >= cfg.verify_min_targets):
+            and people >= cfg.verify_min_targets):
         return (f"over {len(checks)} frames H put {expected} targets inside the other camera "
-                f"and {found} had a target there ({len(missing)} targets missed)")
+                f"and {found} had a target there (misses from at least {people} people)")
     return ""
+
+
+def _fewest_people(checks: tuple[Check, ...]) -> int:
+    """The fewest people who could have made the checks' misses: each target is one person,
+    but a target of A and one of B that missed in disjoint frame spans can be one person
+    unseen in turn by each camera (out of one's frame where H extrapolates, then behind an
+    occluder in the other). Two that missed in the same frames are two people, or one person
+    that H misplaces: evidence against H either way."""
+    spans: dict[tuple[int, int], tuple[int, int]] = {}
+    for k, (_, _, missed) in enumerate(checks):
+        for key in missed:
+            first, _ = spans.get(key, (k, k))
+            spans[key] = (first, k)
+    a = [span for (camera, _), span in spans.items() if camera == 0]
+    b = [span for (camera, _), span in spans.items() if camera == 1]
+    if not a or not b:
+        return len(spans)
+    disjoint = np.array([[sa[1] < sb[0] or sb[1] < sa[0] for sb in b] for sa in a])
+    rows, cols = linear_sum_assignment(disjoint, maximize=True)
+    return len(spans) - int(disjoint[rows, cols].sum())
 
 
 def _verify(state: PairState, homography: HomographyEstimate | HomographyFailure,
