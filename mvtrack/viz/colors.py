@@ -51,17 +51,21 @@ def _palette() -> tuple[tuple[int, int, int], ...]:
            for h in range(72) for light in (0.42, 0.52, 0.62, 0.72) for sat in (0.85, 0.5)]
     rgb = [c for c in rgb if _luminance(c) >= _MIN_LUMINANCE]
     cand = np.round(255 * np.array(rgb)).astype(np.uint8)
-    lab = cv2.cvtColor(cand[None], cv2.COLOR_RGB2Lab)[0].astype(np.float64)
-    lab[:, 0] *= 100 / 255  # 8-bit Lab: L scaled to 0..255, a and b offset by 128
-    gray = cv2.cvtColor(np.array([[_NO_META]], np.uint8), cv2.COLOR_RGB2Lab)[0].astype(np.float64)
-    gray[:, 0] *= 100 / 255
-    nearest = np.linalg.norm(lab - gray, axis=1)
+    lab = _lab(cand)
+    nearest = np.linalg.norm(lab - _lab(np.array([_NO_META], np.uint8)), axis=1)
     picked = []
     for _ in range(PALETTE_SIZE):
         k = int(np.argmax(nearest))
         picked.append(k)
         nearest = np.minimum(nearest, np.linalg.norm(lab - lab[k], axis=1))
     return tuple((int(r), int(g), int(b)) for r, g, b in cand[picked])
+
+
+def _lab(rgb: np.ndarray) -> np.ndarray:
+    """(N, 3) CIELAB (L in 0..100) of (N, 3) uint8 RGB colours."""
+    lab = cv2.cvtColor(rgb.reshape(1, -1, 3), cv2.COLOR_RGB2Lab)[0].astype(np.float64)
+    lab[:, 0] *= 100 / 255  # 8-bit Lab: L scaled to 0..255, a and b offset by 128
+    return lab
 
 
 def _luminance(rgb: tuple[float, float, float]) -> float:
