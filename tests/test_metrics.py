@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -117,6 +119,22 @@ def test_false_alarms_lower_precision() -> None:
         np.concatenate([truth.feet, [[300.0, 10.0], [300.0, 10.0]]]),
     )
     assert detection_scores(extra, truth)["precision"] == pytest.approx(8 / 10)
+
+
+def test_recall_of_people_cut_by_the_frame_edge() -> None:
+    """Four counted people, two of them partly outside the frame, one of those missed; a
+    hardly visible cut person counts in neither figure."""
+    truth = FrameRows.of([0] * 5, range(5), [(50, 100), (150, 100), (250, 20), (350, 15),
+                                             (450, 10)], np.full(5, 40.0),
+                         [1, 1, 0.7, 0.6, 0.3])
+    truth = replace(truth, in_frame=np.array([1, 1, 0.7, 0.6, 0.3]))
+    pred = FrameRows.of([0] * 3, range(3), [(50, 100), (150, 100), (250, 20)])
+    det = detection_scores(pred, truth)
+    assert det["recall"] == pytest.approx(3 / 4)
+    assert det["truth_rows_cut_by_frame"] == 2
+    assert det["recall_cut_by_frame"] == pytest.approx(1 / 2)
+    assert np.isnan(detection_scores(pred, FrameRows.of([0], [0], [(50, 100)], [40.0]))[
+        "recall_cut_by_frame"])
 
 
 def test_error_causes_sort_each_false_alarm_and_miss() -> None:

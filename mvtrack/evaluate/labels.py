@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import shutil
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from itertools import pairwise
 from pathlib import Path
 from typing import Any
@@ -93,8 +93,7 @@ def _global_idf1(truth: Truth, rows: TrackRows, cameras: list[str], frames: rang
         t = FrameRows.from_truth(truth.cameras[name], frames)
         mine = rows.of_camera(name)
         preds.append(FrameRows.of(mine.frame * n + c, mine.meta, mine.feet))
-        truths.append(FrameRows.of(t.frames * n + c, t.ids, t.feet, t.heights, t.visible,
-                                   t.boxes_xywh))
+        truths.append(replace(t, frames=t.frames * n + c))
 
     def cat(parts: list[FrameRows]) -> FrameRows:
         return FrameRows(*(np.concatenate([getattr(p, f) for p in parts])

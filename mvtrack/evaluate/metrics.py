@@ -14,7 +14,7 @@ person's, and is ignored too (MOTChallenge ignores predictions on its ignore reg
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
@@ -42,7 +42,9 @@ class FrameRows:
 
     frames: (N,) int64; ids: (N,) int64; feet: (N, 2) float64; heights: (N,) float64 (truth: the
     person's box height in px; predictions: unused, may be zeros); visible: (N,) float64 (1.0 for
-    predictions); boxes_xywh: (N, 4) float64, truth: the visible box (predictions: NaN).
+    predictions); boxes_xywh: (N, 4) float64, truth: the visible box (predictions: NaN);
+    in_frame: (N,) float64, truth: the share of the silhouette inside the frame (1.0 for
+    predictions).
     """
 
     frames: np.ndarray
@@ -51,6 +53,7 @@ class FrameRows:
     heights: np.ndarray
     visible: np.ndarray
     boxes_xywh: np.ndarray
+    in_frame: np.ndarray
 
     @classmethod
     def of(cls, frames: object, ids: object, feet: object, heights: object = None,
@@ -65,6 +68,7 @@ class FrameRows:
             visible=np.ones(n) if visible is None else np.asarray(visible, np.float64).reshape(n),
             boxes_xywh=np.full((n, 4), np.nan) if boxes_xywh is None
             else np.asarray(boxes_xywh, np.float64).reshape(n, 4),
+            in_frame=np.ones(n),
         )
 
     @classmethod
@@ -72,8 +76,10 @@ class FrameRows:
         """One camera's truth rows within ``frames``; heights are the truth box heights and
         ``visible`` the share of the whole silhouette seen (occlusion and frame edge)."""
         keep = (t.frame >= frames.start) & (t.frame < frames.stop)
-        return cls.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
+        assert t.in_frame is not None  # CameraTruth fills it
+        rows = cls.of(t.frame[keep], t.person[keep], t.foot[keep], t.box_xywh[keep, 3],
                       t.shown[keep], t.box_xywh[keep])
+        return replace(rows, in_frame=np.asarray(t.in_frame[keep], np.float64))
 
     def by_frame(self) -> dict[int, np.ndarray]:
         """Frame index -> row indices."""
@@ -151,19 +157,26 @@ def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.
     """Recall, precision and feet error of per-frame predictions against truth (one camera).
 
     Feet error is over matched pairs: median and 90th percentile in px and as a fraction of
-    the truth height. The false alarms and misses by cause: :func:`error_causes`.
+    the truth height. The false alarms and misses by cause: :func:`error_causes`. Recall of
+    the people cut by the frame's edge (counted, but partly outside it), who are most of the
+    misses where far people walk along the top edge: ``recall_cut_by_frame``.
     """
     m = match_all(pred, truth, gate_heights, min_visible)
     hits = len(m.true_rows)
     err = np.linalg.norm(pred.feet[m.pred_rows] - truth.feet[m.true_rows], axis=1)
     rel = err / np.maximum(truth.heights[m.true_rows], 1.0)
     nan = float("nan")
+    cut = (truth.visible >= min_visible) & (truth.in_frame < 1.0)
+    cut_hits = int(cut[m.true_rows].sum())
+    cut_rows = int(cut.sum())
     return {
         "recall": hits / m.true_counted if m.true_counted else nan,
         "precision": hits / m.pred_counted if m.pred_counted else nan,
         "matches": hits,
         "truth_rows": m.true_counted,
         "predicted_rows": m.pred_counted,
+        "recall_cut_by_frame": cut_hits / cut_rows if cut_rows else nan,
+        "truth_rows_cut_by_frame": cut_rows,
         "foot_error_px_median": float(np.median(err)) if hits else nan,
         "foot_error_px_p90": float(np.percentile(err, 90)) if hits else nan,
         "foot_error_height_median": float(np.median(rel)) if hits else nan,
