@@ -157,9 +157,8 @@ def detection_scores(pred: FrameRows, truth: FrameRows, gate_heights: float = 0.
     """Recall, precision and feet error of per-frame predictions against truth (one camera).
 
     Feet error is over matched pairs: median and 90th percentile in px and as a fraction of
-    the truth height. The false alarms and misses by cause: :func:`error_causes`. Recall of
-    the people cut by the frame's edge (counted, but partly outside it), who are most of the
-    misses where far people walk along the top edge: ``recall_cut_by_frame``.
+    the truth height. The false alarms and misses by cause: :func:`error_causes`.
+    ``recall_cut_by_frame``: the recall of the counted people partly outside the frame.
     """
     m = match_all(pred, truth, gate_heights, min_visible)
     hits = len(m.true_rows)
