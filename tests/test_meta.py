@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import numpy as np
+import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
@@ -158,6 +159,26 @@ def test_far_new_target_or_zero_gate_gets_a_new_meta() -> None:
         state, _ = step(meta_init(), {"A": at(1, 40)}, [], 0, cfg)
         state, r = step(state, {"A": at(2, where)}, [], 1, cfg)  # 40 px = 1.33 heights
         assert r.resumed == () and r.created == (2,)
+
+
+@pytest.mark.parametrize(("last_x", "last_y", "resumed"), [
+    (4.5, 50.0, False),   # last box on the left border: walked out
+    (95.5, 50.0, False),  # right border
+    (40.0, 99.5, False),  # bottom border
+    (10.0, 50.0, True),   # lost inside the frame
+    (40.0, 25.5, True),   # cut by the top border only: a far person, feet in view
+])
+def test_a_meta_that_walked_out_of_the_view_is_not_resumed_there(
+        last_x: float, last_y: float, resumed: bool) -> None:
+    """one_edge seed 1: a person walked out at the left border and 14 frames later another
+    walked in 0.5 heights from there; the newcomer took the leaver's meta (IDF1 0.850)."""
+    state, _ = step(meta_init(), {"A": at(1, last_x - 2, last_y)}, [], 0)
+    state, _ = step(state, {"A": at(1, last_x, last_y)}, [], 1)
+    state, _ = step(state, {"A": cam()}, [], 2)
+    new = {"A": at(2, last_x + (8 if last_x < 50 else -8), last_y)}  # 8 px = 0.27 heights
+    _, r = step(state, new, [], 10)
+    assert (meta_of(r, "A", 2, new) == 1) is resumed
+    assert r.created == (() if resumed else (2,))
 
 
 def test_meta_still_seen_elsewhere_is_not_resumed_by_position() -> None:

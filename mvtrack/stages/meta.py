@@ -10,8 +10,10 @@ Labels are stable: each component inherits the previous meta of most of its memb
 member that has carried it longest; merging components keep the oldest meta); components with
 no previous meta get a new one, unless one of their targets is within ``reattach_heights`` of
 where a live meta with no target anywhere was last seen in that camera: then it resumes that
-meta (a person the front end lost and found again while no other camera saw it). Every present
-target always has a meta. A meta-target ends
+meta (a person the front end lost and found again while no other camera saw it). Not where that
+meta's target was last seen touching the left, right or bottom border: that person walked out
+of the view, and who appears there next is someone walking in. Every present target always
+has a meta. A meta-target ends
 ``meta_timeout_frames`` after its last target was seen; ids are never reused.
 
     state = meta_init()
@@ -81,6 +83,8 @@ class MetaState:
     last_feet:  live meta -> camera -> last feet [x, y] px seen there (for cueing)
     next_meta:  the next new meta id (ids start at 1, never reused)
     last_height: live meta -> camera -> height px of its target there when last seen
+    walked_out: live meta -> cameras where its target, when last seen, touched the left, right
+                or bottom border (not the top: a far person cut by it has its feet in view)
     """
 
     of_target: Mapping[Node, int] = field(default_factory=dict)
@@ -89,6 +93,7 @@ class MetaState:
     last_feet: Mapping[int, Mapping[str, tuple[float, float]]] = field(default_factory=dict)
     next_meta: int = 1
     last_height: Mapping[int, Mapping[str, float]] = field(default_factory=dict)
+    walked_out: Mapping[int, frozenset[str]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -205,8 +210,9 @@ def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], ta
             where: Mapping[Node, tuple[float, float, float]],
             cfg: MetaConfig) -> list[tuple[int, str, int]]:
     """Groups of new targets only take back live metas left with no target at all, when a
-    member's feet are within ``reattach_heights`` of that meta's last feet in its camera
-    (nearest first, one-to-one). Fills ``ids`` and ``taken``; returns (meta, camera, label)."""
+    member's feet are within ``reattach_heights`` of that meta's last feet in its camera and
+    that meta did not walk out of that camera's view (nearest first, one-to-one). Fills
+    ``ids`` and ``taken``; returns (meta, camera, label)."""
     if cfg.reattach_heights <= 0:
         return []
     free = [m for m in state.last_seen if m not in taken]
@@ -219,7 +225,7 @@ def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], ta
             for m in free:
                 last = state.last_feet.get(m, {}).get(n[0])
                 h_last = state.last_height.get(m, {}).get(n[0])
-                if last is None or h_last is None:
+                if last is None or h_last is None or n[0] in state.walked_out.get(m, ()):
                     continue
                 d = float(np.hypot(x - last[0], y - last[1])) / max(h, h_last, 1.0)
                 if d <= cfg.reattach_heights:
@@ -268,6 +274,16 @@ def _feet_of(cameras: Mapping[str, CameraTargets]) -> dict[Node, tuple[float, fl
     }
 
 
+def _at_exit_border(cameras: Mapping[str, CameraTargets]) -> set[Node]:
+    """Present targets whose box touches the left, right or bottom border."""
+    return {
+        (name, int(label))
+        for name, t in cameras.items()
+        for label, sides in zip(t.labels.tolist(), t.touches(0.0).tolist(), strict=True)
+        if sides[0] or sides[1] or sides[3]
+    }
+
+
 def meta_step(state: MetaState, inputs: MetaInputs,
               cfg: MetaConfig) -> tuple[MetaState, MetaResult]:
     """Join this frame's targets into meta-targets and name them (module docstring)."""
@@ -281,15 +297,23 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     last_seen = {m: s for m, s in state.last_seen.items() if frame - s <= cfg.meta_timeout_frames}
     last_feet = {m: dict(state.last_feet.get(m, {})) for m in last_seen}
     last_height = {m: dict(state.last_height.get(m, {})) for m in last_seen}
+    walked_out = {m: set(state.walked_out.get(m, ())) for m in last_seen}
+    at_border = _at_exit_border(inputs.cameras)
     for n, m in of_target.items():
         last_seen[m] = frame
         last_feet.setdefault(m, {})[n[0]] = feet[n][:2]
         last_height.setdefault(m, {})[n[0]] = feet[n][2]
+        out = walked_out.setdefault(m, set())
+        if n in at_border:
+            out.add(n[0])
+        else:
+            out.discard(n[0])
     absorbed = {m for m, _ in merged}
     for m in absorbed - set(ids):
         last_seen.pop(m, None)
         last_feet.pop(m, None)
         last_height.pop(m, None)
+        walked_out.pop(m, None)
     ended = sorted(set(state.last_seen) - set(last_seen) - absorbed)
     metas = {
         name: np.array([of_target[(name, int(label))] for label in t.labels.tolist()], np.int64)
@@ -297,7 +321,8 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     }
     frozen_feet = {m: dict(v) for m, v in last_feet.items()}
     new_state = MetaState(of_target, since, last_seen, frozen_feet, next_meta,
-                          {m: dict(v) for m, v in last_height.items()})
+                          {m: dict(v) for m, v in last_height.items()},
+                          {m: frozenset(v) for m, v in walked_out.items() if v})
     result = MetaResult(
         frame=frame,
         metas=metas,
