@@ -31,5 +31,5 @@ def track_to(clip: Clip, params: Params, frames: range, writer: ResultsWriter,
     (``summary.interrupted``)."""
     summary = run(clip, params, frames, [writer], progress=progress, priors=priors)
     writer.close(run_info(clip.spec, params, frames, summary), summary.pairs)
-    finish_results(writer.out_dir, summary.pairs, params, clip.spec.fps)
+    finish_results(writer.out_dir, summary.pairs, params, clip.spec)
     return summary

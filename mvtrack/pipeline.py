@@ -21,7 +21,7 @@ from typing import Any, Protocol
 
 import numpy as np
 
-from mvtrack.io import CameraSpec, Clip, Detections
+from mvtrack.io import CameraSpec, Clip, ClipSpec, Detections
 from mvtrack.io.results import LearnedPair, TrackRows, read_tracks, rewrite_tracks
 from mvtrack.params import Params
 from mvtrack.stages.background import (
@@ -310,12 +310,14 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
     }
 
 
-def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params) -> Resolution:
+def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
+                 spec: ClipSpec) -> Resolution:
     """Whole-run labels (`stages/resolve.py`) of a run's target rows, with the pairs' final
     homographies (`pairs.json` objects); the FOV-only matcher resolves without them."""
     final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
              for p in pairs]
-    return resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov")
+    return resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov",
+                          sizes={c.name: c.size for c in spec.cameras})
 
 
 def smoothed_feet(rows: TrackRows, params: Params, fps: float) -> np.ndarray:
@@ -329,28 +331,28 @@ def smoothed_feet(rows: TrackRows, params: Params, fps: float) -> np.ndarray:
 
 
 def finish_rows(rows: TrackRows, pairs: Sequence[dict[str, Any]], params: Params,
-                fps: float) -> tuple[TrackRows, Resolution | None]:
+                spec: ClipSpec) -> tuple[TrackRows, Resolution | None]:
     """A whole run's rows as `mvtrack track` finally writes them: each target's feet smoothed
     over time (:func:`smoothed_feet`) and, with ``resolve.labels = "whole_run"``, the metas
     resolved over the whole run (:func:`resolve_rows`, returned too; else None). The
     resolution reads the feet as measured: resolving with the smoothed ones lost up to 0.12
     consistency on three of 72 generated runs (its votes and jump tests were tuned on these)."""
-    smooth = replace(rows, feet=smoothed_feet(rows, params, fps))
+    smooth = replace(rows, feet=smoothed_feet(rows, params, spec.fps))
     if params.resolve.labels != "whole_run":
         return smooth, None
-    res = resolve_rows(rows, pairs, params)
+    res = resolve_rows(rows, pairs, params, spec)
     return replace(smooth, meta=res.meta), res
 
 
 def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params,
-                   fps: float) -> None:
+                   spec: ClipSpec) -> None:
     """Rewrite a finished results directory's `tracks.csv` and `cues.csv` with
     :func:`finish_rows` (the streamed ones stay as `*_online.csv`); nothing to do with neither
     smoothing nor whole-run labels."""
     if params.feet.smooth_seconds == 0 and params.resolve.labels != "whole_run":
         return
     rows = read_tracks(Path(out_dir) / "tracks.csv")
-    final, res = finish_rows(rows, pairs, params, fps)
+    final, res = finish_rows(rows, pairs, params, spec)
     rewrite_tracks(out_dir, final, (lambda f, m: m) if res is None else res.cue_meta)
 
 

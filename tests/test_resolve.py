@@ -24,6 +24,12 @@ class Rows:
     feet: np.ndarray
     height: np.ndarray
 
+    @property
+    def boxes_xywh(self) -> np.ndarray:
+        """A box half as wide as tall standing on the feet."""
+        h = self.height
+        return np.c_[self.feet[:, 0] - h / 4, self.feet[:, 1] - h, h / 2, h]
+
 
 def _rows(tracks: list[tuple[str, int, int, range, tuple[float, float]]]) -> Rows:
     """(camera, target, online meta, frames, cam0 ground point) -> rows; cam1 sees it shifted."""
@@ -179,6 +185,47 @@ def test_a_jump_between_partners_never_seen_together_is_a_switch() -> None:
     cam1 = rows.camera == "cam1"
     assert set(res.meta[cam1 & (rows.frame < 50)].tolist()) == metas["cam0", 1]
     assert set(res.meta[cam1 & (rows.frame >= 50)].tolist()) == metas["cam0", 2]
+
+
+def _walked_out_as_another_walked_in() -> Rows:
+    """cam0 sees one person as target 1 (frames 0-39) and another as target 2 (frames 60-99),
+    each where cam1's target 7 is; cam1's target 7 walks right at 2 px per frame, to x = 240
+    at frame 50, and back (box right edge 252)."""
+    f = np.arange(100)
+    x = 2.0 * (50 - np.abs(f - 50))
+    cam1 = Rows(f, np.array(["cam1"] * 100), np.full(100, 7), np.full(100, 3),
+                np.c_[140.0 + x, np.full(100, 100.0)], np.full(100, 50.0))
+    cam0 = _cat(*(Rows(f[k], np.array(["cam0"] * len(k)), np.full(len(k), t),
+                       np.full(len(k), t), np.c_[100.0 + x[k], np.full(len(k), 100.0)],
+                       np.full(len(k), 50.0))
+                  for t, k in ((1, np.arange(40)), (2, np.arange(60, 100)))))
+    return _cat(cam0, cam1)
+
+
+@pytest.mark.parametrize(("cam1_width", "cut"), [(250, True), (400, False), (None, False)])
+def test_a_turn_at_the_border_between_partners_never_seen_together_is_a_switch(
+        cam1_width: int | None, cut: bool) -> None:
+    """one_edge seed 5: cam0's target 1 walked out at the left border as another person walked
+    in there, one blob for both; its votes went from cam1's target of the first to that of
+    the second. A target that turned back on its frame's border (cam1 250 px wide) is cut
+    there for good; one that turned inside its view (400 px), or with the frame sizes
+    unknown, is one person who left the other camera and came back."""
+    rows = _walked_out_as_another_walked_in()
+    sizes = None if cam1_width is None else {"cam0": (400, 300), "cam1": (cam1_width, 300)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    metas = _meta_of(rows, res.meta)
+    if cut:
+        assert [(sw.track, sw.cut, sw.rejoin) for sw in res.switches] == [(("cam1", 7), 50,
+                                                                            False)]
+        assert metas["cam0", 1] != metas["cam0", 2]
+        cam1 = rows.camera == "cam1"
+        assert set(res.meta[cam1 & (rows.frame < 50)].tolist()) == metas["cam0", 1]
+        assert set(res.meta[cam1 & (rows.frame >= 50)].tolist()) == metas["cam0", 2]
+    else:
+        assert not res.switches and len(set(res.meta.tolist())) == 1
+    off = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
+                         replace(CFG, switch_turn_heights=0.0), sizes=sizes)
+    assert not off.switches
 
 
 def test_a_short_run_of_votes_is_no_switch() -> None:

@@ -47,7 +47,7 @@ the results give each target one meta for its whole life:
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations, pairwise
 from typing import Any, Protocol
@@ -56,6 +56,7 @@ import numpy as np
 
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
+from mvtrack.stages.targets import touching_sides
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
 
@@ -69,7 +70,7 @@ Node = tuple[str, int, int]
 class Rows(Protocol):
     """A whole run's targets, one row per (frame, camera, target) (`tracks.csv` as arrays):
     frame (N,) int64; camera (N,) str; target (N,) int64; meta (N,) int64, the online meta;
-    feet (N, 2) float64 px; height (N,) float64 px."""
+    feet (N, 2) float64 px; boxes_xywh (N, 4) float64 px; height (N,) float64 px."""
 
     @property
     def frame(self) -> np.ndarray: ...
@@ -81,6 +82,8 @@ class Rows(Protocol):
     def meta(self) -> np.ndarray: ...
     @property
     def feet(self) -> np.ndarray: ...
+    @property
+    def boxes_xywh(self) -> np.ndarray: ...
     @property
     def height(self) -> np.ndarray: ...
 
@@ -180,15 +183,24 @@ def _fragment_of(rows: Rows, part: int, whole: int | None, cost: float,
             and rows.height[part] <= cfg.fragment_max_height_frac * rows.height[whole])
 
 
-class _Tracks:
-    """Each target's rows by frame."""
+_TURN_BORDER_FRAMES = 2
 
-    def __init__(self, rows: Rows) -> None:
+
+class _Tracks:
+    """Each target's rows by frame, and which rows' boxes touch the left, right or bottom
+    border of their camera's frame (none without the frame sizes)."""
+
+    def __init__(self, rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> None:
         self.rows = rows
         self.at: dict[Track, dict[int, int]] = {}
         for i, (c, t, f) in enumerate(zip(rows.camera.tolist(), rows.target.tolist(),
                                           rows.frame.tolist(), strict=True)):
             self.at.setdefault((c, t), {})[f] = i
+        self.at_exit = np.zeros(len(rows.frame), bool)
+        for cam, size in (sizes or {}).items():
+            mine = rows.camera == cam
+            sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
+            self.at_exit[mine] = sides[:, 0] | sides[:, 1] | sides[:, 3]
 
     def together(self, p: Track, q: Track) -> int:
         """Frames both targets were present."""
@@ -221,6 +233,32 @@ class _Tracks:
                     best, where = d, f
         return where
 
+    def turn(self, p: Track, frames: range, heights: float) -> int | None:
+        """The frame in ``frames`` where the target walked back the way it came at the left,
+        right or bottom border: its feet moved more than ``heights`` times its median height
+        over the ``_VELOCITY_FRAMES`` before and again over those after, in directions more
+        than 120 degrees apart (the most opposed such frame; of equals, the one with the
+        longer walks each way: the apex), its box on that border within
+        ``_TURN_BORDER_FRAMES``; else None. One person walking out of the view as another
+        walks in there, one blob for both, make this turn; a person turning round inside the
+        view does not."""
+        at, r, k = self.at[p], self.rows, _VELOCITY_FRAMES
+        scale = max(float(np.median(r.height[list(at.values())])), 1.0)
+        least, best, where = heights * scale, (-0.5, 0.0), None
+        for f in frames:
+            i, j, n = at.get(f - k), at.get(f), at.get(f + k)
+            near = range(f - _TURN_BORDER_FRAMES, f + _TURN_BORDER_FRAMES + 1)
+            if i is None or j is None or n is None or not any(
+                    self.at_exit[at[g]] for g in near if g in at):
+                continue
+            before, after = r.feet[j] - r.feet[i], r.feet[n] - r.feet[j]
+            norms = float(np.linalg.norm(before)), float(np.linalg.norm(after))
+            key = (float(before @ after) / (norms[0] * norms[1]) if min(norms) > least else 1.0,
+                   -min(norms))
+            if key < best:
+                best, where = key, f
+        return where
+
 
 def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
               cfg: ResolveConfig) -> list[Switch]:
@@ -231,7 +269,8 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
     together may be one person who left the other camera and came back; the switch holds
     only if the target itself jumped between the runs (feet more than
     ``switch_jump_heights`` of its height from one frame to the next: the label moved to
-    someone else), and its parts are never rejoined."""
+    someone else) or turned back (:meth:`_Tracks.turn`, ``switch_turn_heights``: one person
+    walked out as another walked in), and its parts are never rejoined."""
     runs: list[list[Any]] = []  # [partner, first frame, last frame, votes]
     for f, partner in partners:
         if runs and runs[-1][0] == partner:
@@ -250,7 +289,9 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
         frames = range(p[2] - margin, q[1] + margin + 1)
         if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
             out.append(Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2, frames))
-        elif (at := tracks.jump(track, range(p[2] + 1, q[1] + 1), cfg.switch_jump_heights)):
+        elif at := (tracks.jump(track, range(p[2] + 1, q[1] + 1), cfg.switch_jump_heights)
+                    or (cfg.switch_turn_heights > 0 and tracks.turn(
+                        track, range(p[2] + 1, q[1] + 1), cfg.switch_turn_heights))):
             out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
     return out
 
@@ -272,7 +313,8 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
     return True
 
 
-def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig
+def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
+              sizes: Mapping[str, tuple[int, int]] | None
               ) -> tuple[np.ndarray, list[Switch], set[Node]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
     (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, and the
@@ -283,7 +325,7 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig
         a, b = (cams[i], targets[i]), (cams[k], targets[k])
         partners.setdefault((a, b[0]), []).append((frame[i], b))
         partners.setdefault((b, a[0]), []).append((frame[k], a))
-    tracks = _Tracks(rows)
+    tracks = _Tracks(rows, sizes)
     by_track: dict[Track, list[Switch]] = {}
     for (track, _), seq in partners.items():
         seq.sort()
@@ -471,11 +513,14 @@ def _name_groups(rows: Rows, nodes: list[Node], groups: _Groups) -> np.ndarray:
 
 
 def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None]],
-                   cfg: ResolveConfig, use_h: bool = True) -> Resolution:
+                   cfg: ResolveConfig, use_h: bool = True,
+                   sizes: Mapping[str, tuple[int, int]] | None = None) -> Resolution:
     """Resolve every target's meta over the whole run (module docstring).
 
     pairs: (camera A, camera B, final H_b_from_a or None) per declared overlap
     use_h: False for the FOV-only baseline: every pair keeps the run's own links
+    sizes: camera -> (width, height) of its frame; without them no target is cut where it
+           turned back at a border (the borders are unknown)
     """
     frames = _frames(rows)
     assigned: dict[tuple[str, str], list[tuple[int, int]]] = {}
@@ -487,7 +532,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
         else:
             assigned[a, b], fragment_votes[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
-    segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg)
+    segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
+                                         sizes)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)

@@ -78,7 +78,7 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     made frame by frame, when those differ): the numbers ``--watch`` compares."""
     done = range(frames.start, frames.start + summary.frames)
     kept = rows.rows()
-    final, res = finish_rows(kept, summary.pairs, params, sink.spec.fps)
+    final, res = finish_rows(kept, summary.pairs, params, sink.spec)
     written = {"": final}
     if res is not None:
         sink.log_resolved(kept, res.meta, done, res.switches)
