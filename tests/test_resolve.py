@@ -295,6 +295,18 @@ def test_a_person_hidden_for_a_while_is_stitched_on_one_camera() -> None:
         assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 2
 
 
+def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
+    """pair seed 4: cam0's target 7 walked out over the left border; 27 frames later a blob
+    stood there, then a newcomer walked in, and stitches made them one person. Target 1 here
+    walks left until its box is on the border (frame 39); target 2 stands where it would be by
+    frame 60: stitched while the borders are unknown, not with the frame's size."""
+    rows = _cat(_walker("cam0", 1, 1, range(40), 31.5, -0.5),
+                _walker("cam0", 2, 2, range(60, 100), 2.0, 0.0))
+    assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 1
+    res = resolve_labels(rows, [], CFG, sizes={"cam0": (320, 240)})
+    assert len(set(res.meta.tolist())) == 2 and not res.links
+
+
 def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:
     """cam0 target 1 carries meta 7, then (online) meta 8 from frame 40 while it stays in view
     until frame 80; target 2, another person, takes meta 7 at frame 50. Target 1 was not gone,

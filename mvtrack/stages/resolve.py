@@ -186,21 +186,28 @@ def _fragment_of(rows: Rows, part: int, whole: int | None, cost: float,
 _TURN_BORDER_FRAMES = 2
 
 
-class _Tracks:
-    """Each target's rows by frame, and which rows' boxes touch the left, right or bottom
-    border of their camera's frame (none without the frame sizes)."""
+def _on_exit_border(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
+    """(N,) bool: rows whose box touches the left, right or bottom border of their camera's
+    frame, where people walk out of the view (not the top: a far person cut by it has its
+    feet in view); none without the frame sizes."""
+    out = np.zeros(len(rows.frame), bool)
+    for cam, size in (sizes or {}).items():
+        mine = rows.camera == cam
+        sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
+        out[mine] = sides[:, 0] | sides[:, 1] | sides[:, 3]
+    return out
 
-    def __init__(self, rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> None:
+
+class _Tracks:
+    """Each target's rows by frame; ``at_exit``: :func:`_on_exit_border` of every row."""
+
+    def __init__(self, rows: Rows, at_exit: np.ndarray) -> None:
         self.rows = rows
+        self.at_exit = at_exit
         self.at: dict[Track, dict[int, int]] = {}
         for i, (c, t, f) in enumerate(zip(rows.camera.tolist(), rows.target.tolist(),
                                           rows.frame.tolist(), strict=True)):
             self.at.setdefault((c, t), {})[f] = i
-        self.at_exit = np.zeros(len(rows.frame), bool)
-        for cam, size in (sizes or {}).items():
-            mine = rows.camera == cam
-            sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
-            self.at_exit[mine] = sides[:, 0] | sides[:, 1] | sides[:, 3]
 
     def together(self, p: Track, q: Track) -> int:
         """Frames both targets were present."""
@@ -314,8 +321,7 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
 
 
 def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
-              sizes: Mapping[str, tuple[int, int]] | None
-              ) -> tuple[np.ndarray, list[Switch], set[Node]]:
+              at_exit: np.ndarray) -> tuple[np.ndarray, list[Switch], set[Node]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
     (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, and the
     segments that must not rejoin the one before."""
@@ -325,7 +331,7 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
         a, b = (cams[i], targets[i]), (cams[k], targets[k])
         partners.setdefault((a, b[0]), []).append((frame[i], b))
         partners.setdefault((b, a[0]), []).append((frame[k], a))
-    tracks = _Tracks(rows, sizes)
+    tracks = _Tracks(rows, at_exit)
     by_track: dict[Track, list[Switch]] = {}
     for (track, _), seq in partners.items():
         seq.sort()
@@ -372,8 +378,9 @@ def _segment_links(nodes: list[Node], apart: set[Node]) -> list[tuple[int, Node,
 @dataclass(frozen=True)
 class _Ends:
     """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
-    velocity (px per frame, over its first and last ``_VELOCITY_FRAMES`` rows), and its
-    median height (px)."""
+    velocity (px per frame, over its first and last ``_VELOCITY_FRAMES`` rows), its median
+    height (px), and whether its last box was on a border it can walk out over
+    (:func:`_on_exit_border`)."""
 
     first: int
     last: int
@@ -382,12 +389,13 @@ class _Ends:
     start_v: np.ndarray
     end_v: np.ndarray
     height: float
+    walked_out: bool
 
 
 _VELOCITY_FRAMES = 10
 
 
-def _ends(rows: Rows, nodes: list[Node]) -> dict[Node, _Ends]:
+def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _Ends]:
     at: dict[Node, list[int]] = {}
     for i, n in enumerate(nodes):
         at.setdefault(n, []).append(i)
@@ -398,21 +406,25 @@ def _ends(rows: Rows, nodes: list[Node]) -> dict[Node, _Ends]:
         k = min(_VELOCITY_FRAMES, len(order)) - 1
         span_start, span_end = max(int(f[k] - f[0]), 1), max(int(f[-1] - f[-1 - k]), 1)
         out[n] = _Ends(int(f[0]), int(f[-1]), xy[0], xy[-1], (xy[k] - xy[0]) / span_start,
-                       (xy[-1] - xy[-1 - k]) / span_end, float(np.median(rows.height[order])))
+                       (xy[-1] - xy[-1 - k]) / span_end, float(np.median(rows.height[order])),
+                       bool(at_exit[order[-1]]))
     return out
 
 
-def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig
+def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig, at_exit: np.ndarray
                   ) -> list[tuple[int, Node, Node]]:
     """(rows of the shorter, earlier node, later node): one camera's target that ended and
     one that began at most ``stitch_max_gap_frames`` later where the first, carried on at its
     last velocity, would be (within ``stitch_gate_heights`` of its height), walking the same
-    way, each the other's only such match: a person hidden behind something for a while."""
-    ends = _ends(rows, nodes)
+    way, each the other's only such match: a person hidden behind something for a while.
+    Not from a target last seen on the left, right or bottom border: that one walked out."""
+    ends = _ends(rows, nodes, at_exit)
     count = Counter(nodes)
     best: dict[Node, tuple[float, Node]] = {}
     back: dict[Node, tuple[float, Node]] = {}
     for x, ex in ends.items():
+        if ex.walked_out:
+            continue
         for y, ey in ends.items():
             gap = ey.first - ex.last
             if y[0] != x[0] or not 0 < gap <= cfg.stitch_max_gap_frames:
@@ -532,8 +544,9 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
         else:
             assigned[a, b], fragment_votes[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
+    at_exit = _on_exit_border(rows, sizes)
     segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
-                                         sizes)
+                                         at_exit)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
@@ -544,7 +557,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
-    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(rows, nodes, cfg)]
+    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(rows, nodes, cfg, at_exit)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames)
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
