@@ -29,7 +29,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from mvtrack.params import MetaConfig
-from mvtrack.stages.targets import CameraTargets
+from mvtrack.stages.targets import CameraTargets, on_exit_border
 
 __all__ = [
     "Conflict",
@@ -275,12 +275,14 @@ def _feet_of(cameras: Mapping[str, CameraTargets]) -> dict[Node, tuple[float, fl
 
 
 def _at_exit_border(cameras: Mapping[str, CameraTargets]) -> set[Node]:
-    """Present targets whose box touches the left, right or bottom border."""
+    """Present targets whose box is on the left, right or bottom border (:func:`~mvtrack.
+    stages.targets.on_exit_border`)."""
     return {
         (name, int(label))
         for name, t in cameras.items()
-        for label, sides in zip(t.labels.tolist(), t.touches(0.0).tolist(), strict=True)
-        if sides[0] or sides[1] or sides[3]
+        for label, out in zip(t.labels.tolist(), on_exit_border(t.boxes_xywh, t.size).tolist(),
+                              strict=True)
+        if out
     }
 
 

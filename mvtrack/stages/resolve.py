@@ -24,14 +24,17 @@ the results give each target one meta for its whole life:
   Two people swapped by one camera make mirror switches in both cameras; only the targets of
   the camera where the two came nearer each other (in body heights) are cut. Two partners
   never seen together may be one person who left and came back: the target is cut only if
-  its feet jumped between the runs (``switch_jump_heights``), and those parts stay apart;
+  its feet jumped between the runs (``switch_jump_heights``) or it turned back on the left,
+  right or bottom border (``switch_turn_heights``: one person walked out of the view as
+  another walked in, one blob for both), and those parts stay apart;
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
   targets is the online stage changing its mind, not one person coming back);
 - **stitches**: a target of one camera that begins, at most ``stitch_max_gap_frames`` after
   another ended, where that one would be had it walked on as before, continues it (a person
-  hidden behind a pillar while no other camera saw both parts);
+  hidden behind a pillar while no other camera saw both parts), unless the one that ended
+  was last seen on the left, right or bottom border: it walked out of the view;
 - links join strongest first (cross-camera votes, then same-camera continuity, then
   stitches). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
@@ -56,7 +59,7 @@ import numpy as np
 
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
-from mvtrack.stages.targets import touching_sides
+from mvtrack.stages.targets import on_exit_border
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
 
@@ -187,14 +190,13 @@ _TURN_BORDER_FRAMES = 2
 
 
 def _on_exit_border(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
-    """(N,) bool: rows whose box touches the left, right or bottom border of their camera's
-    frame, where people walk out of the view (not the top: a far person cut by it has its
-    feet in view); none without the frame sizes."""
+    """(N,) bool: rows whose box is on the left, right or bottom border of their camera's
+    frame, where people walk out of the view (:func:`~mvtrack.stages.targets.
+    on_exit_border`); none without the frame sizes."""
     out = np.zeros(len(rows.frame), bool)
     for cam, size in (sizes or {}).items():
         mine = rows.camera == cam
-        sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
-        out[mine] = sides[:, 0] | sides[:, 1] | sides[:, 3]
+        out[mine] = on_exit_border(rows.boxes_xywh[mine], size)
     return out
 
 
@@ -531,8 +533,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
 
     pairs: (camera A, camera B, final H_b_from_a or None) per declared overlap
     use_h: False for the FOV-only baseline: every pair keeps the run's own links
-    sizes: camera -> (width, height) of its frame; without them no target is cut where it
-           turned back at a border (the borders are unknown)
+    sizes: camera -> (width, height) of its frame; without them the borders are unknown: no
+           target is cut where it turned back at one, and stitches may start at one
     """
     frames = _frames(rows)
     assigned: dict[tuple[str, str], list[tuple[int, int]]] = {}

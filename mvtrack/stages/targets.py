@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SIDES", "CameraTargets", "touching_sides"]
+__all__ = ["SIDES", "CameraTargets", "on_exit_border", "touching_sides"]
 
 SIDES = ("left", "right", "top", "bottom")
 """Column order of :attr:`CameraTargets.touches`."""
@@ -66,6 +66,13 @@ class CameraTargets:
         """Row of ``label`` in this frame, or None if the target is absent."""
         hits = np.flatnonzero(self.labels == label)
         return int(hits[0]) if len(hits) else None
+
+
+def on_exit_border(boxes_xywh: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """(N,) bool: boxes on the left, right or bottom border, where people walk out of the view
+    (not the top: a far person cut by it keeps its feet in view)."""
+    sides = touching_sides(boxes_xywh, size, 0.0)
+    return sides[:, 0] | sides[:, 1] | sides[:, 3]
 
 
 def touching_sides(boxes_xywh: np.ndarray, size: tuple[int, int], margin_px: float) -> np.ndarray:
