@@ -186,7 +186,8 @@ def _fragment_of(rows: Rows, part: int, whole: int | None, cost: float,
             and rows.height[part] <= cfg.fragment_max_height_frac * rows.height[whole])
 
 
-_TURN_BORDER_FRAMES = 2
+_VELOCITY_FRAMES = 10  # rows over which a walking velocity is measured
+_TURN_BORDER_FRAMES = 2  # a turn at the border: the box on it within this many frames
 
 
 def _on_exit_border(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
@@ -211,6 +212,10 @@ class _Tracks:
                                           rows.frame.tolist(), strict=True)):
             self.at.setdefault((c, t), {})[f] = i
 
+    def median_height(self, p: Track) -> float:
+        """The target's median height (px, at least 1)."""
+        return max(float(np.median(self.rows.height[list(self.at[p].values())])), 1.0)
+
     def together(self, p: Track, q: Track) -> int:
         """Frames both targets were present."""
         return len(self.at[p].keys() & self.at[q].keys())
@@ -232,7 +237,7 @@ class _Tracks:
         before, if more than ``heights`` times its median height (not the frame's: a target
         shrinking at the frame's edge is no jump); else None."""
         at, r = self.at[p], self.rows
-        scale = max(float(np.median(r.height[list(at.values())])), 1.0)
+        scale = self.median_height(p)
         best, where = heights * scale, None
         for f in frames:
             i, k = at.get(f - 1), at.get(f)
@@ -252,7 +257,7 @@ class _Tracks:
         walks in there, one blob for both, make this turn; a person turning round inside the
         view does not."""
         at, r, k = self.at[p], self.rows, _VELOCITY_FRAMES
-        scale = max(float(np.median(r.height[list(at.values())])), 1.0)
+        scale = self.median_height(p)
         least, best, where = heights * scale, (-0.5, 0.0), None
         for f in frames:
             i, j, n = at.get(f - k), at.get(f), at.get(f + k)
@@ -296,11 +301,12 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
     out = []
     for p, q in pairwise(long):
         frames = range(p[2] - margin, q[1] + margin + 1)
+        between = range(p[2] + 1, q[1] + 1)
         if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
             out.append(Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2, frames))
-        elif at := (tracks.jump(track, range(p[2] + 1, q[1] + 1), cfg.switch_jump_heights)
-                    or (cfg.switch_turn_heights > 0 and tracks.turn(
-                        track, range(p[2] + 1, q[1] + 1), cfg.switch_turn_heights))):
+        elif at := (tracks.jump(track, between, cfg.switch_jump_heights)
+                    or (cfg.switch_turn_heights > 0
+                        and tracks.turn(track, between, cfg.switch_turn_heights))):
             out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
     return out
 
@@ -393,8 +399,6 @@ class _Ends:
     height: float
     walked_out: bool
 
-
-_VELOCITY_FRAMES = 10
 
 
 def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _Ends]:
