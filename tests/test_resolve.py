@@ -295,6 +295,24 @@ def test_a_person_hidden_for_a_while_is_stitched_on_one_camera() -> None:
         assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 2
 
 
+def test_a_stitch_goes_by_the_walk_not_by_one_bad_last_row() -> None:
+    """doors seed 0: cam1's target 10 walked left at 1 px/frame; in its last rows it merged
+    with two people coming out of a door below it and its feet dropped 28 px (a 25 px tall
+    person), then it was hidden in their blob for 22 frames. Its last velocity measured from
+    end to end (10 rows) put it 4 heights below where it came out again (target 13); its walk
+    (the median of its rows' pairwise velocities) puts it there."""
+    walk = _walker("cam0", 10, 1, range(40), 140.0, -1.0)
+    merged = np.isin(walk.frame, [38, 39])
+    walk = replace(walk, feet=walk.feet + np.where(merged, 28.0, 0.0)[:, None] * [0.0, 1.0],
+                   height=np.full(len(walk.frame), 25.0))
+    back = replace(_walker("cam0", 13, 2, range(62, 100), 140.0, -1.0),
+                   height=np.full(38, 25.0))
+    res = resolve_labels(_cat(walk, back), [], CFG)
+    assert len(set(res.meta.tolist())) == 1
+    assert [(x.a, x.b, x.source) for x in res.links] == [
+        (("cam0", 10, 0), ("cam0", 13, 0), "stitch")]
+
+
 def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
     """pair seed 4: cam0's target 7 walked out over the left border; 27 frames later a blob
     stood there, then a newcomer walked in, and stitches made them one person. Target 1 here

@@ -386,7 +386,8 @@ def _segment_links(nodes: list[Node], apart: set[Node]) -> list[tuple[int, Node,
 @dataclass(frozen=True)
 class _Ends:
     """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
-    velocity (px per frame, over its first and last ``_VELOCITY_FRAMES`` rows), its median
+    velocity (px per frame, the walk of its first and last ``_VELOCITY_FRAMES`` rows:
+    :func:`_walk`), its median
     height (px), and whether its last box was on a border it can walk out over
     (:func:`_on_exit_border`)."""
 
@@ -400,6 +401,17 @@ class _Ends:
     walked_out: bool
 
 
+def _walk(frames: np.ndarray, xy: np.ndarray, at: int) -> tuple[np.ndarray, np.ndarray]:
+    """Where a target was at frame ``at`` and its velocity (px per frame), from rows
+    (frames, feet) near it: the Theil-Sen line (median of the pairwise velocities, median of
+    the rows' feet carried to ``at`` at that velocity), so that a few bad rows (a merge with
+    someone, legs lost) bend neither."""
+    i, j = np.triu_indices(len(frames), 1)
+    if not len(i):
+        return xy[0].astype(np.float64), np.zeros(2)
+    v = np.median((xy[j] - xy[i]) / np.maximum(frames[j] - frames[i], 1)[:, None], axis=0)
+    return np.median(xy + (at - frames)[:, None] * v, axis=0), v
+
 
 def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _Ends]:
     at: dict[Node, list[int]] = {}
@@ -409,11 +421,11 @@ def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _End
     for n, idx in at.items():
         order = np.array(idx)[np.argsort(rows.frame[idx], kind="stable")]
         f, xy = rows.frame[order], rows.feet[order]
-        k = min(_VELOCITY_FRAMES, len(order)) - 1
-        span_start, span_end = max(int(f[k] - f[0]), 1), max(int(f[-1] - f[-1 - k]), 1)
-        out[n] = _Ends(int(f[0]), int(f[-1]), xy[0], xy[-1], (xy[k] - xy[0]) / span_start,
-                       (xy[-1] - xy[-1 - k]) / span_end, float(np.median(rows.height[order])),
-                       bool(at_exit[order[-1]]))
+        k = min(_VELOCITY_FRAMES, len(order))
+        start_xy, start_v = _walk(f[:k], xy[:k], int(f[0]))
+        end_xy, end_v = _walk(f[-k:], xy[-k:], int(f[-1]))
+        out[n] = _Ends(int(f[0]), int(f[-1]), start_xy, end_xy, start_v, end_v,
+                       float(np.median(rows.height[order])), bool(at_exit[order[-1]]))
     return out
 
 
