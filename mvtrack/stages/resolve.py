@@ -386,10 +386,9 @@ def _segment_links(nodes: list[Node], apart: set[Node]) -> list[tuple[int, Node,
 @dataclass(frozen=True)
 class _Ends:
     """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
-    velocity (px per frame, the walk of its first and last ``_VELOCITY_FRAMES`` rows:
-    :func:`_walk`), its median
-    height (px), and whether its last box was on a border it can walk out over
-    (:func:`_on_exit_border`)."""
+    velocity (px per frame), each the walk of its first or last ``_VELOCITY_FRAMES`` rows
+    (:func:`_walk`); its median height (px), and whether its last box was on a border it can
+    walk out over (:func:`_on_exit_border`)."""
 
     first: int
     last: int
