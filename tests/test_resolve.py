@@ -228,6 +228,20 @@ def test_a_turn_at_the_border_between_partners_never_seen_together_is_a_switch(
     assert not off.switches
 
 
+def test_a_turn_at_the_border_needs_fewer_votes_before_it() -> None:
+    """one_edge seed 3: the person who walked out was seen by the other camera for only 19
+    frames before. The turn is evidence of its own: 15 votes (``switch_moved_min_votes`` 10)
+    are enough for the cut, not when such a switch needs the 20 of any other."""
+    rows = _walked_out_as_another_walked_in()
+    rows = Rows(*(getattr(rows, f)[~((rows.camera == "cam0") & (rows.frame < 25))]
+                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+    sizes = {"cam0": (400, 300), "cam1": (250, 300)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    assert [(sw.track, sw.cut) for sw in res.switches] == [(("cam1", 7), 50)]
+    strict = replace(CFG, switch_moved_min_votes=CFG.switch_min_votes)
+    assert not resolve_labels(rows, [("cam0", "cam1", SHIFT)], strict, sizes=sizes).switches
+
+
 def test_a_short_run_of_votes_is_no_switch() -> None:
     """Under ``switch_min_votes`` frames with the other person (people passing close by) do
     not cut a target: it keeps one meta, its person's."""

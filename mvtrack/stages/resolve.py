@@ -274,6 +274,18 @@ class _Tracks:
         return where
 
 
+def _long_runs(runs: list[list[Any]], least: int) -> list[list[Any]]:
+    """The runs of votes (partner, first frame, last frame, votes) with at least ``least``
+    votes, those next to each other for one partner joined (new lists)."""
+    long: list[list[Any]] = []
+    for run in (r for r in runs if r[3] >= least):
+        if long and long[-1][0] == run[0]:
+            long[-1][2], long[-1][3] = run[2], long[-1][3] + run[3]
+        else:
+            long.append([*run])
+    return long
+
+
 def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
               cfg: ResolveConfig) -> list[Switch]:
     """Where a target's votes change person. ``partners``: its (frame, voted partner) in one
@@ -284,31 +296,30 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
     only if the target itself jumped between the runs (feet more than
     ``switch_jump_heights`` of its height from one frame to the next: the label moved to
     someone else) or turned back (:meth:`_Tracks.turn`, ``switch_turn_heights``: one person
-    walked out as another walked in), and its parts are never rejoined."""
+    walked out as another walked in), and its parts are never rejoined. That evidence is
+    enough with shorter runs, of ``switch_moved_min_votes``."""
     runs: list[list[Any]] = []  # [partner, first frame, last frame, votes]
     for f, partner in partners:
         if runs and runs[-1][0] == partner:
             runs[-1][2], runs[-1][3] = f, runs[-1][3] + 1
         else:
             runs.append([partner, f, f, 1])
-    long: list[list[Any]] = []
-    for run in (r for r in runs if r[3] >= cfg.switch_min_votes):
-        if long and long[-1][0] == run[0]:
-            long[-1][2], long[-1][3] = run[2], long[-1][3] + run[3]
-        else:
-            long.append(run)
     margin = cfg.switch_min_votes
     out = []
-    for p, q in pairwise(long):
+    for p, q in pairwise(_long_runs(runs, cfg.switch_min_votes)):
+        frames = range(p[2] - margin, q[1] + margin + 1)
+        if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
+            out.append(Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2, frames))
+    for p, q in pairwise(_long_runs(runs, cfg.switch_moved_min_votes)):
         frames = range(p[2] - margin, q[1] + margin + 1)
         between = range(p[2] + 1, q[1] + 1)
         if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
-            out.append(Switch(track, p[0], q[0], (p[2] + q[1] + 1) // 2, frames))
-        elif at := (tracks.jump(track, between, cfg.switch_jump_heights)
-                    or (cfg.switch_turn_heights > 0
-                        and tracks.turn(track, between, cfg.switch_turn_heights))):
+            continue
+        if at := (tracks.jump(track, between, cfg.switch_jump_heights)
+                  or (cfg.switch_turn_heights > 0
+                      and tracks.turn(track, between, cfg.switch_turn_heights))):
             out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
-    return out
+    return sorted(out, key=lambda sw: sw.cut)
 
 
 def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Tracks) -> bool:
