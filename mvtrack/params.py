@@ -915,7 +915,7 @@ class ResolveConfig(_Checked):
     # A jump or a turn is evidence of its own, so those switches need shorter runs of votes:
     # one_edge seed 3's cam0 target 1 turned at the left border with 19 votes before it. 48
     # clips of seeds 0-5 (same online rows), 20 -> 10: mean IDF1 0.928 -> 0.931, one_edge s3
-    # 0.820 -> 0.929, gray s4 0.878 -> 0.888, no clip worse; 5 also 0.931 (not gray s4).
+    # 0.820 -> 0.929, gray s4 0.878 -> 0.888, no clip worse (5: one_edge s3 only, 0.931).
     # Held-out seeds 6-7 and seeds 0-2 with draws 1-2: no change. (switch_min_votes 20 -> 8 for
     # every switch: tilted seed 6 0.898 -> 0.867.)
     switch_moved_min_votes: int = param(
