@@ -354,6 +354,20 @@ def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:
     assert not any(x.joined for x in res.links)
 
 
+def test_no_take_over_of_a_meta_that_walked_out_of_the_view() -> None:
+    """three seed 4: cam2's target 3 walked out over the right border at frame 256; at frame
+    260 a newcomer walking in on that border (target 7) took its meta through a wrong online
+    link in the other camera, and the take-over made two people one for 250 frames. Target 1
+    here walks right until its box is on the border of a 240 px wide frame; target 2 takes its
+    meta 10 frames later, 2 heights away: a take-over while the borders are unknown, none with
+    the frame's size."""
+    rows = _cat(_walker("cam0", 1, 5, range(40), 200.0, 1.0),
+                _walker("cam0", 2, 5, range(50, 100), 275.0, -1.0))  # x 225 at frame 50
+    assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 1
+    res = resolve_labels(rows, [], CFG, sizes={"cam0": (240, 180)})
+    assert len(set(res.meta.tolist())) == 2 and not res.links
+
+
 def test_pairs_without_h_keep_the_runs_own_links() -> None:
     rows = _rows([("cam0", 1, 1, range(20), (100.0, 100.0)),
                   ("cam1", 1, 1, range(20), (300.0, 10.0)),

@@ -30,7 +30,8 @@ the results give each target one meta for its whole life:
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
-  targets is the online stage changing its mind, not one person coming back);
+  targets is the online stage changing its mind, not one person coming back) and had not
+  walked out of the view over the left, right or bottom border;
 - **stitches**: a target of one camera that begins, at most ``stitch_max_gap_frames`` after
   another ended, where that one would be had it walked on as before, continues it (a person
   hidden behind a pillar while no other camera saw both parts), unless the one that ended
@@ -469,18 +470,22 @@ def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig, at_exit: np
 
 
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
-                  cfg: ResolveConfig) -> tuple[Counter, Counter]:
+                  cfg: ResolveConfig, at_exit: np.ndarray) -> tuple[Counter, Counter]:
     """The run's own links: cross-camera (same meta in one frame, only for pairs without H)
-    and same-camera continuity (a meta taken over within ``resume_gap_frames``)."""
+    and same-camera continuity (a meta taken over within ``resume_gap_frames`` from a target
+    that did not walk out of the view)."""
     cross: Counter[tuple[Node, Node]] = Counter()
     by_key: dict[tuple[int, int], list[Node]] = {}
     span: dict[tuple[Node, int], list[int]] = {}
     last: dict[Node, int] = {}
-    for f, m, n in zip(rows.frame.tolist(), rows.meta.tolist(), nodes, strict=True):
+    walked_out: dict[Node, bool] = {}
+    for f, m, n, out in zip(rows.frame.tolist(), rows.meta.tolist(), nodes, at_exit.tolist(),
+                            strict=True):
         by_key.setdefault((f, m), []).append(n)
         s = span.setdefault((n, m), [f, f, 0])
         s[0], s[1], s[2] = min(s[0], f), max(s[1], f), s[2] + 1
-        last[n] = max(last.get(n, f), f)
+        if f >= last.get(n, f):
+            last[n], walked_out[n] = f, out
     for group in by_key.values():
         for x, y in combinations(sorted(set(group)), 2):
             if x[0] != y[0] and frozenset((x[0], y[0])) in pairs_without_h:
@@ -496,7 +501,8 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
             # A take-over, not a meta handed from one live target to another: the earlier
             # target is gone when the later one takes the meta.
             if (x[0] == y[0] and x[:2] != y[:2] and 0 < gap <= cfg.resume_gap_frames
-                    and last[earlier] < taken_at):  # (segments of one target: _segment_links)
+                    and last[earlier] < taken_at and not walked_out[earlier]):
+                # (segments of one target: _segment_links)
                 same[(x, y)] = min(sx[2], sy[2])
     return cross, same
 
@@ -581,7 +587,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     for names, votes in assigned.items():
         scored += [(0, v, x, y, "homography") for v, x, y in _homography_votes(
             rows, nodes, frames, names, votes + fragment_votes[names], cfg)]
-    cross, same = _online_links(rows, nodes, without_h, cfg)
+    cross, same = _online_links(rows, nodes, without_h, cfg, at_exit)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
