@@ -121,11 +121,11 @@ def test_a_target_that_switched_person_is_cut_and_two_people_never_joined() -> N
     ]
 
 
-def test_a_swap_is_blamed_on_the_camera_where_the_two_overlapped() -> None:
-    """Persons A and B pass 10 px apart at frame 40. cam1 sees them large (100 px tall: 0.1
-    heights apart, against 0.2 in cam0) and swaps its targets 7 and 8 there; cam0 keeps its
-    targets 1 and 2 on their people. Each of the four targets' votes change partner at frame
-    40; only cam1's targets are cut, and every row of A carries one meta."""
+def test_a_swap_is_blamed_on_the_camera_whose_targets_turned_back() -> None:
+    """Persons A and B, walking towards each other, pass 10 px apart at frame 40. cam1 swaps
+    its targets 7 and 8 there (each turns back the way it came); cam0 keeps its targets 1 and
+    2 on their people. Each of the four targets' votes change partner at frame 40; only cam1's
+    targets are cut, and every row of A carries one meta."""
     cols: list[list] = [[], [], [], [], [], []]
 
     def add(cam: str, target: int, meta: int, frames: range, person: str) -> None:
@@ -153,6 +153,38 @@ def test_a_swap_is_blamed_on_the_camera_where_the_two_overlapped() -> None:
     assert res.meta[person_a][0] != res.meta[~person_a][0]
     cut = {x.a for x in res.links if x.source == "segment"}
     assert cut == {("cam1", 7, 0), ("cam1", 8, 0)}
+
+
+def test_a_hand_over_is_blamed_on_the_target_whose_walk_bent() -> None:
+    """crowd seed 0: persons A and B walk side by side, 10 px apart, in both cameras. cam1's
+    target 5 follows A, merges with B's target 6, which ends, and comes out on B's path at
+    frame 40; A gets a new target 11 at frame 42. cam0 sees the two large (100 px tall: 0.1
+    heights apart, against 0.2 in cam1) and keeps its targets 1 and 2 on them. Both cam0's
+    target 1 and cam1's target 5 change partner there; the one whose feet left the line they
+    walked (cam1's) is cut, though the two were nearer each other in cam0."""
+    cols: list[list] = [[], [], [], [], [], []]
+
+    def add(cam: str, target: int, frames: range, person: str) -> None:
+        for f in frames:
+            feet = (100.0 + f + (40.0 if cam == "cam1" else 0.0), 100.0 if person == "A" else 110.0)
+            for col, v in zip(cols, (f, cam, target, target, feet,
+                                     100.0 if cam == "cam0" else 50.0), strict=True):
+                col.append(v)
+
+    add("cam0", 1, range(80), "A")
+    add("cam0", 2, range(80), "B")
+    add("cam1", 5, range(40), "A")
+    add("cam1", 5, range(40, 80), "B")
+    add("cam1", 6, range(38), "B")
+    add("cam1", 11, range(42, 80), "A")
+    rows = Rows(*(np.array(c) for c in cols))
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    assert [(sw.track, sw.cut) for sw in res.switches] == [(("cam1", 5), 40)]
+    person_a = ((rows.camera == "cam0") & (rows.target == 1)) | (
+        (rows.camera == "cam1") & ((rows.target == 11) | ((rows.target == 5) & (rows.frame < 40))))
+    assert len(set(res.meta[person_a].tolist())) == 1
+    assert len(set(res.meta[~person_a].tolist())) == 1
+    assert res.meta[person_a][0] != res.meta[~person_a][0]
 
 
 def _left_and_came_back(jump: bool) -> Rows:

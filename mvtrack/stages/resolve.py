@@ -21,8 +21,8 @@ the results give each target one meta for its whole life:
   together for more than ``max_shared_frames`` frames (two people), changed person in between
   (two people crossing at a door or a frame edge): it is cut there into segments, which vote
   apart; consecutive segments are rejoined (after the votes) unless that joins two people.
-  Two people swapped by one camera make mirror switches in both cameras; only the targets of
-  the camera where the two came nearer each other (in body heights) are cut. Two partners
+  Two people swapped (or a person handed over) by one camera make mirror switches in both
+  cameras; only the target whose feet left the line it walked at the switch is cut. Two partners
   never seen together may be one person who left and came back: the target is cut only if
   its feet jumped between the runs (``switch_jump_heights``) or it turned back on the left,
   right or bottom border (``switch_turn_heights``: one person walked out of the view as
@@ -60,7 +60,7 @@ import numpy as np
 
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
-from mvtrack.stages.targets import on_exit_border
+from mvtrack.stages.targets import touching_sides
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
 
@@ -191,19 +191,22 @@ _VELOCITY_FRAMES = 10  # rows over which a walking velocity is measured
 _TURN_BORDER_FRAMES = 2  # a turn at the border: the box on it within this many frames
 
 
-def _on_exit_border(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
-    """(N,) bool: rows whose box is on the left, right or bottom border of their camera's
+def _outward(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
+    """(N, 2): for rows whose box is on the left, right or bottom border of their camera's
     frame, where people walk out of the view (:func:`~mvtrack.stages.targets.
-    on_exit_border`); none without the frame sizes."""
-    out = np.zeros(len(rows.frame), bool)
+    on_exit_border`), the sum of those borders' outward directions; zeros for the others and
+    for every row without the frame sizes."""
+    out = np.zeros((len(rows.frame), 2))
     for cam, size in (sizes or {}).items():
         mine = rows.camera == cam
-        out[mine] = on_exit_border(rows.boxes_xywh[mine], size)
+        sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
+        out[mine] = np.c_[sides[:, 1].astype(float) - sides[:, 0], sides[:, 3]]
     return out
 
 
 class _Tracks:
-    """Each target's rows by frame; ``at_exit``: :func:`_on_exit_border` of every row."""
+    """Each target's rows by frame; ``at_exit``: rows on a border people walk out over
+    (:func:`_outward`)."""
 
     def __init__(self, rows: Rows, at_exit: np.ndarray) -> None:
         self.rows = rows
@@ -221,17 +224,19 @@ class _Tracks:
         """Frames both targets were present."""
         return len(self.at[p].keys() & self.at[q].keys())
 
-    def nearest(self, p: Track, q: Track, frames: range) -> float:
-        """The least distance of two targets of one camera over ``frames`` (both present), in
-        body heights (feet distance over their mean height); inf if never both present."""
-        at_p, at_q, r = self.at[p], self.at[q], self.rows
-        best = np.inf
-        for f in frames:
-            i, k = at_p.get(f), at_q.get(f)
-            if i is not None and k is not None:
-                d = float(np.linalg.norm(r.feet[i] - r.feet[k]))
-                best = min(best, d / max(0.5 * (r.height[i] + r.height[k]), 1.0))
-        return best
+    def bend(self, p: Track, cut: int) -> float:
+        """How far the target's feet in the ``_VELOCITY_FRAMES`` frames from ``cut`` on lie
+        from where its walk over as many frames before ``cut`` (:func:`_walk`) puts them:
+        the median distance in its median heights (0 without rows on both sides)."""
+        at, r, k = self.at[p], self.rows, _VELOCITY_FRAMES
+        before = [at[f] for f in range(cut - k, cut) if f in at]
+        after = [at[f] for f in range(cut, cut + k) if f in at]
+        if not before or not after:
+            return 0.0
+        xy, v = _walk(r.frame[before], r.feet[before], cut)
+        ahead = xy + (r.frame[after] - cut)[:, None] * v
+        d = np.linalg.norm(r.feet[after] - ahead, axis=1)
+        return float(np.median(d)) / self.median_height(p)
 
     def jump(self, p: Track, frames: range, heights: float) -> int | None:
         """The frame in ``frames`` where the target's feet moved furthest from the frame
@@ -324,19 +329,18 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
 
 
 def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Tracks) -> bool:
-    """Whether ``sw``'s own target changed person. Two people swapped in one camera make
-    switches in both: each of the other camera's two targets sees this one go from one to the
-    other. The camera where the two were nearer each other (in body heights) then is the one
-    that swapped them; without such a mirror switch the target's own camera did."""
+    """Whether ``sw``'s own target changed person. Two people swapped in one camera, or one
+    target there handed from one to the other, make switches in both cameras: the other
+    camera's targets see this one go from one to the other. The target that changed person
+    was put on the other's path: of the two, the one whose feet after the switch lie further
+    from its walk before (:meth:`_Tracks.bend`) switched; without such a mirror switch the
+    target's own camera did."""
     for other in (sw.before, sw.after):
         for mirror in by_track.get(other, ()):
             overlap = (sw.frames.start < mirror.frames.stop
                        and mirror.frames.start < sw.frames.stop)
             if sw.track in (mirror.before, mirror.after) and overlap:
-                rival = mirror.after if mirror.before == sw.track else mirror.before
-                mine = tracks.nearest(sw.track, rival, sw.frames)
-                theirs = tracks.nearest(sw.before, sw.after, sw.frames)
-                return mine < theirs
+                return tracks.bend(sw.track, sw.cut) > tracks.bend(mirror.track, mirror.cut)
     return True
 
 
@@ -399,8 +403,10 @@ def _segment_links(nodes: list[Node], apart: set[Node]) -> list[tuple[int, Node,
 class _Ends:
     """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
     velocity (px per frame), each the walk of its first or last ``_VELOCITY_FRAMES`` rows
-    (:func:`_walk`); its median height (px), and whether its last box was on a border it can
-    walk out over (:func:`_on_exit_border`)."""
+    (:func:`_walk`); its median height (px), and whether it walked out of the view: its last
+    box on a border it can walk out over (:func:`_outward`), its last walk not heading back
+    into the view (a person who came in there and merged with someone on the border at the
+    end did not walk out)."""
 
     first: int
     last: int
@@ -424,7 +430,7 @@ def _walk(frames: np.ndarray, xy: np.ndarray, at: int) -> tuple[np.ndarray, np.n
     return np.median(xy + (at - frames)[:, None] * v, axis=0), v
 
 
-def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _Ends]:
+def _ends(rows: Rows, nodes: list[Node], outward: np.ndarray) -> dict[Node, _Ends]:
     at: dict[Node, list[int]] = {}
     for i, n in enumerate(nodes):
         at.setdefault(n, []).append(i)
@@ -435,19 +441,20 @@ def _ends(rows: Rows, nodes: list[Node], at_exit: np.ndarray) -> dict[Node, _End
         k = min(_VELOCITY_FRAMES, len(order))
         start_xy, start_v = _walk(f[:k], xy[:k], int(f[0]))
         end_xy, end_v = _walk(f[-k:], xy[-k:], int(f[-1]))
+        side = outward[order[-1]]
         out[n] = _Ends(int(f[0]), int(f[-1]), start_xy, end_xy, start_v, end_v,
-                       float(np.median(rows.height[order])), bool(at_exit[order[-1]]))
+                       float(np.median(rows.height[order])),
+                       bool(side.any() and end_v @ side >= 0))
     return out
 
 
-def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig, at_exit: np.ndarray
+def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
                   ) -> list[tuple[int, Node, Node]]:
     """(rows of the shorter, earlier node, later node): one camera's target that ended and
     one that began at most ``stitch_max_gap_frames`` later where the first, carried on at its
     last velocity, would be (within ``stitch_gate_heights`` of its height), walking the same
     way, each the other's only such match: a person hidden behind something for a while.
-    Not from a target last seen on the left, right or bottom border: that one walked out."""
-    ends = _ends(rows, nodes, at_exit)
+    Not from a target that walked out of the view (``_Ends.walked_out``)."""
     count = Counter(nodes)
     best: dict[Node, tuple[float, Node]] = {}
     back: dict[Node, tuple[float, Node]] = {}
@@ -470,22 +477,17 @@ def _stitch_links(rows: Rows, nodes: list[Node], cfg: ResolveConfig, at_exit: np
 
 
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
-                  cfg: ResolveConfig, at_exit: np.ndarray) -> tuple[Counter, Counter]:
+                  cfg: ResolveConfig, ends: dict[Node, _Ends]) -> tuple[Counter, Counter]:
     """The run's own links: cross-camera (same meta in one frame, only for pairs without H)
     and same-camera continuity (a meta taken over within ``resume_gap_frames`` from a target
-    that did not walk out of the view)."""
+    that did not walk out of the view, ``_Ends.walked_out``)."""
     cross: Counter[tuple[Node, Node]] = Counter()
     by_key: dict[tuple[int, int], list[Node]] = {}
     span: dict[tuple[Node, int], list[int]] = {}
-    last: dict[Node, int] = {}
-    walked_out: dict[Node, bool] = {}
-    for f, m, n, out in zip(rows.frame.tolist(), rows.meta.tolist(), nodes, at_exit.tolist(),
-                            strict=True):
+    for f, m, n in zip(rows.frame.tolist(), rows.meta.tolist(), nodes, strict=True):
         by_key.setdefault((f, m), []).append(n)
         s = span.setdefault((n, m), [f, f, 0])
         s[0], s[1], s[2] = min(s[0], f), max(s[1], f), s[2] + 1
-        if f >= last.get(n, f):
-            last[n], walked_out[n] = f, out
     for group in by_key.values():
         for x, y in combinations(sorted(set(group)), 2):
             if x[0] != y[0] and frozenset((x[0], y[0])) in pairs_without_h:
@@ -501,7 +503,7 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
             # A take-over, not a meta handed from one live target to another: the earlier
             # target is gone when the later one takes the meta.
             if (x[0] == y[0] and x[:2] != y[:2] and 0 < gap <= cfg.resume_gap_frames
-                    and last[earlier] < taken_at and not walked_out[earlier]):
+                    and ends[earlier].last < taken_at and not ends[earlier].walked_out):
                 # (segments of one target: _segment_links)
                 same[(x, y)] = min(sx[2], sy[2])
     return cross, same
@@ -578,7 +580,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
         else:
             assigned[a, b], fragment_votes[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
-    at_exit = _on_exit_border(rows, sizes)
+    outward = _outward(rows, sizes)
+    at_exit = np.abs(outward).sum(axis=1) > 0
     segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
                                          at_exit)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
@@ -587,11 +590,12 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     for names, votes in assigned.items():
         scored += [(0, v, x, y, "homography") for v, x, y in _homography_votes(
             rows, nodes, frames, names, votes + fragment_votes[names], cfg)]
-    cross, same = _online_links(rows, nodes, without_h, cfg, at_exit)
+    ends = _ends(rows, nodes, outward)
+    cross, same = _online_links(rows, nodes, without_h, cfg, ends)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
-    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(rows, nodes, cfg, at_exit)]
+    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames)
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
