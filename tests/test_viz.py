@@ -184,7 +184,7 @@ def pair_recording(tmp_path_factory: pytest.TempPathFactory
 
 
 def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> None:
-    rec, summary, *_ = pair_recording
+    rec, summary, _, rrd = pair_recording
     a, b = "cam0", "cam1"
     for layer in ("markers", "links"):
         assert rec[paths.pair_layer(a, b, layer)]["rows"] == 100
@@ -195,6 +195,11 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
     fov_events = [rec.get(paths.camera_layer(c, "fov_events"), {"rows": 0})["rows"]
                   for c in (a, b)]
     assert sum(fov_events) > 0
+    for cam in (a, b):  # the event is written in the target's label on its frame
+        told = {f for f, labels in _box_labels(rrd, cam, "targets").items()
+                if any(" · enter " in t or " · leave " in t for t in labels)}
+        assert told <= set(rec.get(paths.camera_layer(cam, "fov_events"), {"frames": []})["frames"])
+        assert bool(told) == (cam in {c for c, n in zip((a, b), fov_events) if n})
     for cam, other in ((a, b), (b, a)):  # at frame 0, then when they change: lines as
         lines = rec[paths.camera_pair_layer(cam, "fov_lines", other)]  # events accumulate,
         markers = rec[paths.camera_pair_layer(cam, "markers", other)]  # markers every 5 frames
@@ -210,11 +215,11 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
         assert rec[paths.camera_pair_layer(b, "projected", a)]["rows"] >= 1
 
 
-def _resolved_boxes(rrd: Path, cam: str) -> dict[int, list[str]]:
-    """Frame -> labels of the boxes on ``/cameras/{cam}/resolved`` (latest row per frame)."""
+def _box_labels(rrd: Path, cam: str, layer: str = "resolved") -> dict[int, list[str]]:
+    """Frame -> labels of the boxes on ``/cameras/{cam}/{layer}`` (latest row per frame)."""
     out: dict[int, list[str]] = {}
     for chunk in RrdReader(rrd).store().stream().to_chunks():
-        if str(chunk.entity_path) != paths.camera_layer(cam, "resolved"):
+        if str(chunk.entity_path) != paths.camera_layer(cam, layer):
             continue
         rb = chunk.to_record_batch()
         if "frame" in rb.schema.names:
@@ -244,7 +249,7 @@ def test_resolved_layer_shows_what_mvtrack_track_writes(
         expected: dict[int, list[str]] = {f: [] for f in range(100)}
         for i in np.flatnonzero(changed & (final.camera == cam)):
             expected[int(final.frame[i])].append(f"t{final.target[i]} → m{final.meta[i]}")
-        shown = _resolved_boxes(rrd, cam)
+        shown = _box_labels(rrd, cam)
         assert {f: sorted(v) for f, v in shown.items()} == \
             {f: sorted(v) for f, v in expected.items()}
 

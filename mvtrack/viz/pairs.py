@@ -69,17 +69,18 @@ def _feet_of(result: FrameResult, cam: str, label: int) -> np.ndarray | None:
 
 def _log_events(sink: RerunSink, name: str, pr: Any, result: FrameResult) -> None:
     rec = sink.rec
-    by_cam: dict[str, list[tuple[np.ndarray, str]]] = {}
+    by_cam: dict[str, list[np.ndarray]] = {}
     for ev in pr.events:
         sink.event(f"{ev.camera}: FOV event t{ev.target} {ev.kind}s {ev.side} ({name})")
         xy = _feet_of(result, ev.camera, ev.target)
         if xy is not None:
-            by_cam.setdefault(ev.camera, []).append((xy, f"{ev.kind} {ev.side}"))
-    for cam, items in by_cam.items():
+            by_cam.setdefault(ev.camera, []).append(xy)
+    for cam, feet in by_cam.items():
+        # A white disc under the feet dot, a ring round it; what the event was is written in
+        # the target's label (RerunSink._log_camera).
         sink.fov_event_cameras.add(cam)
         rec.log(paths.camera_layer(cam, "fov_events"), rr.Points2D(
-            to_viewer(np.array([p for p, _ in items])), labels=[t for _, t in items],
-            colors=(255, 255, 255), radii=6.0, draw_order=12.0))
+            to_viewer(np.array(feet)), colors=(255, 255, 255), radii=6.0, draw_order=10.5))
     for a_label, b_label, ev in pr.associations:
         sink.event(f"pair {name}: linked t{a_label} ↔ t{b_label} at a {ev.side} event of "
                    f"{ev.camera}")

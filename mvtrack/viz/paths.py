@@ -22,7 +22,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     area_threshold_px (T_area at the blob's row), max_distance,
                                     mean_flow_px, is_mvo
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
-                                    label "t{target} m{meta}"
+                                    label "t{target} m{meta}", "· {enter|leave} {side}" added
+                                    at a FOV event
     /cameras/{cam}/feet             Points2D: feet, class id = meta
     /cameras/{cam}/feet_final       Points2D: the feet `mvtrack track` writes to tracks.csv,
                                     smoothed over the run, logged for every frame once the run
@@ -31,7 +32,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     run ends, on the targets whose whole-run meta differs from
                                     their online one: class id = that meta, label "t{target} →
                                     m{meta}" (the labels `mvtrack track` writes to tracks.csv)
-    /cameras/{cam}/fov_events       Points2D: feet of targets at FOV events this frame, labelled
+    /cameras/{cam}/fov_events       Points2D: white rings round the feet of targets at FOV events
+                                    this frame (the event is in the target's label)
     /cameras/{cam}/fov_lines/{other}  LineStrips2D: the learned FOV lines of camera ``other``'s
                                     edges, seen in ``cam``
     /cameras/{cam}/markers/{other}  Points2D: the markers of pair (cam, other), cam's side

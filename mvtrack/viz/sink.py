@@ -272,8 +272,12 @@ class RerunSink:
         top = max((int(m.max()) for m in result.metas.values() if len(m)), default=0)
         self._grow_metas(top)
         images = self._images.submit(self._frame_images, result) if self._images else None
+        events: dict[str, dict[int, str]] = {}  # camera -> target -> FOV event, in its label
+        for pr in result.pairs.values() if self.options.pairs else ():
+            for ev in pr.events:
+                events.setdefault(ev.camera, {})[ev.target] = f"{ev.kind} {ev.side}"
         for name, cam in result.cameras.items():
-            self._log_camera(name, cam, result.metas[name], result.index)
+            self._log_camera(name, cam, result.metas[name], events.get(name, {}))
             rec.log(paths.targets_metric(name), rr.Scalars(float(len(cam.targets))))
             self._foot_error(name, cam, result.index)
         for stage, ms in result.stage_ms.items():
@@ -330,12 +334,17 @@ class RerunSink:
         return {name: self._camera_images(cam, result.metas[name])
                 for name, cam in result.cameras.items()}
 
-    def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray, index: int) -> None:
+    def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray,
+                    events: Mapping[int, str]) -> None:
+        """Blobs, target boxes (labelled with target, meta and this frame's FOV event, if
+        any: Rerun writes a label under its box, where an event marker's would collide) and
+        feet."""
         rec, opts = self.rec, self.options
         if cam.background is not None and opts.blobs:
             self._log_blobs(name, cam)
         targets = cam.targets
-        text = [f"t{t} m{m}" for t, m in zip(targets.labels.tolist(), metas.tolist(), strict=True)]
+        text = [f"t{t} m{m}" + (f" · {events[t]}" if t in events else "")
+                for t, m in zip(targets.labels.tolist(), metas.tolist(), strict=True)]
         boxes = targets.boxes_xywh.copy()
         boxes[:, :2] += 0.5
         rec.log(paths.camera_layer(name, "targets"), rr.Boxes2D(
