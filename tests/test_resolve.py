@@ -371,6 +371,22 @@ def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
     assert len(set(res.meta.tolist())) == 2 and not res.links
 
 
+def test_two_people_seen_apart_are_never_joined_through_others() -> None:
+    """crowd seed 0: cam0's target 12 lived 10 frames where cam1's target 1 was, and 9 votes
+    linked them; cam0's target 17 then took 12's meta (the same person, rightly) but stood 2
+    heights from cam1's target 1 for 41 frames without a vote: two people, kept apart, where
+    the chain of links would have joined them."""
+    rows = _rows([
+        ("cam1", 1, 1, range(0, 81), (200.0, 100.0)),
+        ("cam0", 12, 9, range(10, 20), (200.0, 100.0)),
+        ("cam0", 17, 9, range(40, 121), (100.0, 100.0)),
+    ])
+    metas = _meta_of(rows, resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG).meta)
+    assert metas["cam0", 12] == metas["cam1", 1] != metas["cam0", 17]
+    chained = resolve_labels(rows, [("cam0", "cam1", SHIFT)], replace(CFG, apart_max_vote_share=0))
+    assert len(set(chained.meta.tolist())) == 1
+
+
 def test_a_meta_handed_between_live_targets_is_no_take_over() -> None:
     """cam0 target 1 carries meta 7, then (online) meta 8 from frame 40 while it stays in view
     until frame 80; target 2, another person, takes meta 7 at frame 50. Target 1 was not gone,

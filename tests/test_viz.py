@@ -195,11 +195,11 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
     fov_events = [rec.get(paths.camera_layer(c, "fov_events"), {"rows": 0})["rows"]
                   for c in (a, b)]
     assert sum(fov_events) > 0
-    for cam in (a, b):  # the event is written in the target's label on its frame
-        told = {f for f, labels in _box_labels(rrd, cam, "targets").items()
-                if any(" · enter " in t or " · leave " in t for t in labels)}
-        assert told <= set(rec.get(paths.camera_layer(cam, "fov_events"), {"frames": []})["frames"])
-        assert bool(told) == (cam in {c for c, n in zip((a, b), fov_events) if n})
+    for cam, n_events in zip((a, b), fov_events, strict=True):  # each event is written in
+        told = {f for f, labels in _box_labels(rrd, cam, "targets").items()  # its target's
+                if any(" · enter " in t or " · leave " in t for t in labels)}  # label
+        shown = rec.get(paths.camera_layer(cam, "fov_events"), {"frames": []})["frames"]
+        assert told <= set(shown) and bool(told) == bool(n_events)
     for cam, other in ((a, b), (b, a)):  # at frame 0, then when they change: lines as
         lines = rec[paths.camera_pair_layer(cam, "fov_lines", other)]  # events accumulate,
         markers = rec[paths.camera_pair_layer(cam, "markers", other)]  # markers every 5 frames

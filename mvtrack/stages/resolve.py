@@ -39,7 +39,10 @@ the results give each target one meta for its whole life:
 - links join strongest first (cross-camera votes, then same-camera continuity, then
   stitches). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
-  frames into one meta is refused: those are two people, not two fragments of one;
+  frames into one meta is refused: those are two people, not two fragments of one; so is one
+  joining two targets of a pair with H that were beyond each other's vote gate in more than
+  ``max_shared_frames`` frames and voted for each other in few of them
+  (``apart_max_vote_share``);
 - each group of targets keeps the online meta most of its rows carried, unless a larger group
   took it; otherwise it gets a new one above every online meta.
 
@@ -149,12 +152,14 @@ def _frames(rows: Rows) -> list[np.ndarray]:
 
 
 def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H: np.ndarray,
-                 cfg: ResolveConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]]]:
+                 cfg: ResolveConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]],
+                                              list[tuple[int, int]]]:
     """Votes of one pair as (A row, B row): every frame's gated assignment of the pair's
     targets on the transfer distance (body heights, as the matcher), and the fragment votes: a
     target left out of the assignment votes for the nearest other-camera target within the
-    gate (the legs of a person whose torso took the assignment)."""
-    pairs, fragments = [], []
+    gate (the legs of a person whose torso took the assignment); then every (A row, B row)
+    beyond the gate."""
+    pairs, fragments, far = [], [], []
     for chunk in frames:
         ia = chunk[rows.camera[chunk] == names[0]]
         ib = chunk[rows.camera[chunk] == names[1]]
@@ -164,6 +169,8 @@ def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H
                                         rows.height[ib])
         got = gated_assignment(cost, range(len(ia)), range(len(ib)), cfg.vote_gate_heights)
         pairs += [(int(ia[i]), int(ib[k])) for i, k, _ in got]
+        far += [(int(ia[i]), int(ib[k]))
+                for i, k in zip(*np.nonzero(cost >= cfg.vote_gate_heights), strict=True)]
         a_of = {k: i for i, k, _ in got}
         b_of = {i: k for i, k, _ in got}
         for i in set(range(len(ia))) - set(b_of):
@@ -174,7 +181,7 @@ def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H
             i = int(np.argmin(cost[:, k]))
             if _fragment_of(rows, ib[k], ib[b_of[i]] if i in b_of else None, cost[i, k], cfg):
                 fragments.append((int(ia[i]), int(ib[k])))
-    return pairs, fragments
+    return pairs, fragments, far
 
 
 def _fragment_of(rows: Rows, part: int, whole: int | None, cost: float,
@@ -374,6 +381,18 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
     return segment, cut, apart
 
 
+def _apart(nodes: list[Node], assigned: Mapping[tuple[str, str], list[tuple[int, int]]],
+           far: Mapping[tuple[str, str], list[tuple[int, int]]],
+           cfg: ResolveConfig) -> set[tuple[Node, Node]]:
+    """(A node, B node) pairs of two people: present together beyond the vote gate in more
+    than ``max_shared_frames`` frames, and assigned to each other in fewer than
+    ``apart_max_vote_share`` of as many. ``assigned``, ``far``: (A row, B row) per pair."""
+    voted = Counter((nodes[i], nodes[k]) for vs in assigned.values() for i, k in vs)
+    frames_far = Counter((nodes[i], nodes[k]) for vs in far.values() for i, k in vs)
+    return {xy for xy, n in frames_far.items()
+            if n > cfg.max_shared_frames and voted[xy] < cfg.apart_max_vote_share * n}
+
+
 def _homography_votes(rows: Rows, nodes: list[Node], frames: list[np.ndarray],
                       names: tuple[str, str], assigned: list[tuple[int, int]],
                       cfg: ResolveConfig) -> list[tuple[int, Node, Node]]:
@@ -510,9 +529,12 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
 
 
 class _Groups:
-    """Union-find of targets that refuses to join two people of one camera."""
+    """Union-find of targets that refuses to join two people: two targets of one camera
+    present together in more than ``max_shared`` frames, or a pair in ``apart``."""
 
-    def __init__(self, rows: Rows, nodes: list[Node], max_shared: int) -> None:
+    def __init__(self, rows: Rows, nodes: list[Node], max_shared: int,
+                 apart: set[tuple[Node, Node]]) -> None:
+        self.apart = apart
         self.parent = {n: n for n in nodes}
         self.members = {n: [n] for n in self.parent}
         self.frames: dict[Node, set[int]] = {}
@@ -533,6 +555,8 @@ class _Groups:
         for p in self.members[rx]:
             for q in self.members[ry]:
                 if p[0] == q[0] and len(self.frames[p] & self.frames[q]) > self.max_shared:
+                    return False
+                if (p, q) in self.apart or (q, p) in self.apart:
                     return False
         if len(self.members[rx]) < len(self.members[ry]):
             rx, ry = ry, rx
@@ -574,11 +598,12 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     assigned: dict[tuple[str, str], list[tuple[int, int]]] = {}
     fragment_votes: dict[tuple[str, str], list[tuple[int, int]]] = {}
     without_h: set[frozenset[str]] = set()
+    far: dict[tuple[str, str], list[tuple[int, int]]] = {}
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
         else:
-            assigned[a, b], fragment_votes[a, b] = _assignments(
+            assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
     outward = _outward(rows, sizes)
     at_exit = np.abs(outward).sum(axis=1) > 0
@@ -596,7 +621,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
-    groups = _Groups(rows, nodes, cfg.max_shared_frames)
+    groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg))
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
         links.append(ResolvedLink(x, y, v, source, groups.join(x, y)))
