@@ -31,11 +31,12 @@ the results give each target one meta for its whole life:
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
   targets is the online stage changing its mind, not one person coming back) and had not
-  walked out of the view over the left, right or bottom border;
+  walked out of the view (as for stitches, below);
 - **stitches**: a target of one camera that begins, at most ``stitch_max_gap_frames`` after
   another ended, where that one would be had it walked on as before, continues it (a person
   hidden behind a pillar while no other camera saw both parts), unless the one that ended
-  was last seen on the left, right or bottom border: it walked out of the view;
+  walked out of the view: last seen on the left, right or bottom border, not walking back
+  into the view;
 - links join strongest first (cross-camera votes, then same-camera continuity, then
   stitches). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
