@@ -892,10 +892,10 @@ class ResolveConfig(_Checked):
     # without: 0.948, crowd seed 0 0.836 -> 0.845, no other of the 48 clips changed), unless
     # its last walk heads back into the view (doors seed 0: one who came in at the right
     # border merged there with someone in its last row; with the border alone, 0.970 ->
-    # 0.963 once take-overs followed the rule too). The
-    # Theil-Sen line, not the last 10 rows' end-to-end velocity: a target whose last rows
-    # merged with someone is not bent away (doors seed 0, cam1 target 10: 4 heights off;
-    # 48 clips mean IDF1 0.927 -> 0.928, doors seed 0 0.925 -> 0.970, no clip worse).
+    # 0.963 once take-overs followed the rule too). The Theil-Sen line, not the last 10
+    # rows' end-to-end velocity: a target whose last rows merged with someone is not bent
+    # away (doors seed 0, cam1 target 10: 4 heights off; 48 clips mean IDF1 0.927 -> 0.928,
+    # doors seed 0 0.925 -> 0.970, no clip worse).
     stitch_max_gap_frames: int = param(
         50, "a target that begins this many frames or fewer after another ended may continue it",
         0, 100000,

@@ -64,7 +64,7 @@ import numpy as np
 
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
-from mvtrack.stages.targets import touching_sides
+from mvtrack.stages.targets import exit_outward
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
 
@@ -200,15 +200,12 @@ _TURN_BORDER_FRAMES = 2  # a turn at the border: the box on it within this many 
 
 
 def _outward(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
-    """(N, 2): for rows whose box is on the left, right or bottom border of their camera's
-    frame, where people walk out of the view (:func:`~mvtrack.stages.targets.
-    on_exit_border`), the sum of those borders' outward directions; zeros for the others and
-    for every row without the frame sizes."""
+    """(N, 2): each row's :func:`~mvtrack.stages.targets.exit_outward` in its camera's frame
+    (zeros off the exit borders, and for every row without the frame sizes)."""
     out = np.zeros((len(rows.frame), 2))
     for cam, size in (sizes or {}).items():
         mine = rows.camera == cam
-        sides = touching_sides(rows.boxes_xywh[mine], size, 0.0)
-        out[mine] = np.c_[sides[:, 1].astype(float) - sides[:, 0], sides[:, 3]]
+        out[mine] = exit_outward(rows.boxes_xywh[mine], size)
     return out
 
 
@@ -607,7 +604,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
     outward = _outward(rows, sizes)
-    at_exit = np.abs(outward).sum(axis=1) > 0
+    at_exit = np.abs(outward).sum(axis=1) > 0  # on_exit_border of every row
     segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
                                          at_exit)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),

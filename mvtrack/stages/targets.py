@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SIDES", "CameraTargets", "on_exit_border", "touching_sides"]
+__all__ = ["SIDES", "CameraTargets", "exit_outward", "on_exit_border", "touching_sides"]
 
 SIDES = ("left", "right", "top", "bottom")
 """Column order of :attr:`CameraTargets.touches`."""
@@ -68,11 +68,17 @@ class CameraTargets:
         return int(hits[0]) if len(hits) else None
 
 
+def exit_outward(boxes_xywh: np.ndarray, size: tuple[int, int]) -> np.ndarray:
+    """(N, 2): for boxes on the left, right or bottom border, where people walk out of the
+    view (not the top: a far person cut by it keeps its feet in view), the sum of those
+    borders' outward directions in pixel axes; zeros for the others."""
+    sides = touching_sides(boxes_xywh, size, 0.0).astype(np.float64)
+    return np.c_[sides[:, 1] - sides[:, 0], sides[:, 3]]
+
+
 def on_exit_border(boxes_xywh: np.ndarray, size: tuple[int, int]) -> np.ndarray:
-    """(N,) bool: boxes on the left, right or bottom border, where people walk out of the view
-    (not the top: a far person cut by it keeps its feet in view)."""
-    sides = touching_sides(boxes_xywh, size, 0.0)
-    return sides[:, 0] | sides[:, 1] | sides[:, 3]
+    """(N,) bool: boxes on the left, right or bottom border (:func:`exit_outward`)."""
+    return np.asarray(exit_outward(boxes_xywh, size).any(axis=1))
 
 
 def touching_sides(boxes_xywh: np.ndarray, size: tuple[int, int], margin_px: float) -> np.ndarray:
