@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -296,5 +298,29 @@ def test_a_crosser_flickering_at_the_margin_gives_one_event() -> None:
     slot = add_event(slot, 300, _at([7], [[20.0, 200.0]]), cfg, event_target=7)  # later: kept
     assert slot.n_events == 6
     slot = estimate_line(slot, cfg, 300)
+    assert slot.line is not None
+    assert _line_error(np.array(slot.line.line), 1.0, 0.0, -150.0) < 3.0
+
+
+def test_a_line_waits_for_enough_distinct_crossers() -> None:
+    """A person flickering at B's border gives many events from one place: four of them,
+    with a bystander somewhere else at each, give a line through the flicker at any angle.
+    With ``min_fov_crossers`` 3 the slot waits: the flicker keeps its votes, but the line
+    comes once three different people have crossed, and it is the true one."""
+    cfg = FovConfig(min_fov_events=4, min_fov_crossers=3)
+    slot = new_slot("a", "b", "left", SIZE)
+    bystanders = [[40.0, 60.0], [280.0, 100.0], [60.0, 230.0], [250.0, 40.0]]
+    for k, xy in enumerate(bystanders):  # crosser 7 flickers about A's (150, 200)
+        flicker = [150.0 + 0.5 * k, 200.0 - 0.5 * k]
+        slot = add_event(slot, 10 + 2 * k, _at([7, 9 + k], [flicker, xy]), cfg, event_target=7)
+    early = estimate_line(slot, replace(cfg, min_fov_crossers=1), 20)
+    assert early.line is not None  # counting events alone: a line, and a wrong one
+    assert _line_error(np.array(early.line.line), 1.0, 0.0, -150.0) > 20.0
+    assert estimate_line(slot, cfg, 20).line is None
+    rng = np.random.default_rng(5)
+    for k, y in enumerate([40.0, 110.0]):  # two more people cross B's left border: x = 150
+        slot = add_event(slot, 100 + 40 * k, _event_targets(rng, np.array([150.0, y]), k), cfg,
+                         event_target=20 + k)
+    slot = estimate_line(slot, cfg, 200)
     assert slot.line is not None
     assert _line_error(np.array(slot.line.line), 1.0, 0.0, -150.0) < 3.0

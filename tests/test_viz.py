@@ -35,9 +35,12 @@ N_FRAMES = 40
 TRAIN = 20
 
 
+# two events per side, from any crossers, are enough for a FOV line: short clips learn some
+SHORT_CLIP = (f"background.train_frames={TRAIN}", "fov.min_fov_events=2", "fov.min_fov_crossers=1")
+
+
 def _params() -> Params:
-    # two events per side are enough for a FOV line: the short clips then learn some
-    return load_params(None, [f"background.train_frames={TRAIN}", "fov.min_fov_events=2"])
+    return load_params(None, list(SHORT_CLIP))
 
 
 @pytest.fixture(scope="module")
@@ -238,8 +241,7 @@ def test_resolved_layer_shows_what_mvtrack_track_writes(
 
     _, _, clip, rrd = pair_recording
     out = tmp_path / "res"
-    sets = [a for s in ("background.train_frames=20", "fov.min_fov_events=2")
-            for a in ("--set", s)]
+    sets = [a for s in SHORT_CLIP for a in ("--set", s)]
     result = CliRunner().invoke(track_app, ["track", str(clip), "--out", str(out), *sets])
     assert result.exit_code == 0, result.output
     final, online = read_tracks(out / "tracks.csv"), read_tracks(out / "tracks_online.csv")

@@ -34,7 +34,8 @@ TRAIN = 20
 
 
 def _params() -> Params:
-    return load_params(None, [f"background.train_frames={TRAIN}", "fov.min_fov_events=2"])
+    return load_params(None, [f"background.train_frames={TRAIN}", "fov.min_fov_events=2",
+                              "fov.min_fov_crossers=1"])
 
 
 @pytest.fixture(scope="module")

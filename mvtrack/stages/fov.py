@@ -294,6 +294,12 @@ def add_event(
     return replace(slot, events=events, accumulator=acc, n_events=slot.n_events + 1)
 
 
+def _crossers(slot: FovSlot) -> int:
+    """Distinct crossers of the slot's retained events (an unknown crosser counts once each)."""
+    known = {e.event_target for e in slot.events if e.event_target >= 0}
+    return len(known) + sum(e.event_target < 0 for e in slot.events)
+
+
 def _line_from_peak(theta: float, rho: float, centre: tuple[float, float]) -> np.ndarray:
     a, b = np.cos(theta), np.sin(theta)
     return np.array([a, b, -(a * centre[0] + b * centre[1] + rho)])
@@ -462,7 +468,11 @@ def estimate_line(
     spanning two body heights), the line is their total-least-squares fit instead of the Hough
     peak, which bystanders near the line can pull away.
     """
-    if slot.n_events < cfg.min_fov_events or slot.accumulator is None:
+    if (
+        slot.n_events < cfg.min_fov_events
+        or slot.accumulator is None
+        or _crossers(slot) < cfg.min_fov_crossers
+    ):
         return slot
     points, owner = slot.points()
     hough = hough_line(slot.accumulator, points, owner, slot.size, cfg)
