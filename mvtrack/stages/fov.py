@@ -126,7 +126,8 @@ class FovSlot:
     events:       recent events, oldest first, at most ``max_fov_events``
     accumulator:  sum of the retained events' votes (see :func:`event_votes`), or None
     n_events:     all events ever recorded here
-    line:         the current line, or None before ``min_fov_events`` events
+    line:         the current line, or None before ``min_fov_events`` events from
+                  ``min_fov_crossers`` different crossers
     hough:        the Hough transform behind ``line``
     """
 
@@ -456,7 +457,8 @@ def estimate_line(
     H_seen_from_edge: np.ndarray | None = None,
     edge_size: tuple[int, int] | None = None,
 ) -> FovSlot:
-    """Re-estimate the slot's line from its accumulator once it has ``min_fov_events`` events.
+    """Re-estimate the slot's line from its accumulator once it has ``min_fov_events`` events
+    from ``min_fov_crossers`` different crossers.
 
     With a homography from the edge camera to the seen one (once the pair has learned it):
     for the left, right and bottom sides the line is the edge camera's border through it
