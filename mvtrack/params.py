@@ -463,15 +463,15 @@ class FovConfig(_Checked):
         2.0, "a target touches a side when its mask/box is within this many px of it", 0.0, 100.0
     )
     min_fov_events: int = param(4, "events on a side before its FOV line is estimated", 2, 1000)
-    # A target flickering at the margin gives an event each time it touches the border, all at
-    # one place: four such events and the bystanders at each make a line through that place at
-    # any angle (generated 'pillar' s6: cam1's top line, seen in cam0, after 4 events at frame
-    # 37, from 2 people). 3 crossers, not 2 or 4, 48 sweep clips (seeds 0-5): mean IDF1 0.9351
-    # -> 0.9354 (2: 0.9347; 4: 0.9305, one_edge s5 0.998 -> 0.780), worst FOV line mean 8.56 ->
-    # 8.21 px; held-out seeds 6-7: 0.8965 -> 0.9075 (pillar s6 0.686 -> 0.862, consistency 0.29
-    # -> 0.59); RANSAC draws 1, 2 (seeds 0-2) unchanged. The FOV-only baseline, which has
-    # nothing but these lines, is better with early ones: seed 0, 0.737 (1) against 0.711 (3);
-    # compare it at 1 (README).
+    # [beyond] A target flickering at the margin gives an event each time it touches the
+    # border, all at one place: four such events and the bystanders at each make a line through
+    # that place at any angle (generated 'pillar' s6: cam1's top line, seen in cam0, after 4
+    # events at frame 37, from 2 people). 3 crossers, not 2 or 4, 48 sweep clips (seeds 0-5):
+    # mean IDF1 0.9351 -> 0.9354 (2: 0.9347; 4: 0.9305, one_edge s5 0.998 -> 0.780), worst FOV
+    # line mean 8.56 -> 8.21 px; held-out seeds 6-7: 0.8965 -> 0.9075 (pillar s6 0.686 ->
+    # 0.862, consistency 0.29 -> 0.59); RANSAC draws 1, 2 (seeds 0-2) unchanged. The FOV-only
+    # baseline, which has nothing but these lines, is better with early ones: seed 0, 0.737 (1)
+    # against 0.711 (3); compare it at 1 (README).
     min_fov_crossers: int = param(
         3, "distinct crossers (targets of the edge camera) those events must come from: a "
         "target flickering at the margin gives many events at one place", 1, 1000,
