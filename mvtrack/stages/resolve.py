@@ -604,7 +604,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
     outward = _outward(rows, sizes)
-    at_exit = np.abs(outward).sum(axis=1) > 0  # on_exit_border of every row
+    at_exit = np.asarray(outward.any(axis=1))  # on_exit_border of every row, its own rule
     segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
                                          at_exit)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
