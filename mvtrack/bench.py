@@ -17,7 +17,7 @@ import cv2
 import numpy as np
 
 from mvtrack.params import Params
-from mvtrack.stages.background import background_step, train_background
+from mvtrack.stages.background import background_step, train_background, training_offsets
 from mvtrack.stages.blobtrack import track_masks, tracker_init
 from mvtrack.stages.feet import target_feet_records
 
@@ -108,7 +108,7 @@ def bench_frontend(name: str, frames: Sequence[np.ndarray], modality: str, param
     previous_threads = cv2.getNumThreads()
     cv2.setNumThreads(1)
     try:
-        train = frames[: params.background.train_frames]
+        train = [frames[i] for i in training_offsets(len(frames), params.background)]
         n = len(frames)
         mog = _seconds(lambda: mog2_baseline(frames, params), repeats)
         bg = _seconds(lambda: run_frontend(frames, modality, params, train, full=False), repeats)

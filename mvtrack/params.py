@@ -71,6 +71,17 @@ class BackgroundConfig(_Checked):
     """Sakbot background subtraction (SPEC §1, thesis §3.2.1)."""
 
     train_frames: int = param(100, "frames whose per-pixel median is the initial background", 1)
+    # [beyond] The spec takes the first train_frames frames in a row. A walker slower than a
+    # body width per 50 frames (generated 'crowd': 0.25 px/frame, 8 px wide) covers a pixel in
+    # most of 100 consecutive frames and is learned as background; its ghost trail then joins
+    # the people who pass it (stacked fragments) and stays an MVO for hundreds of frames.
+    # Trained B against the generator's true background (24 clips of seeds 0-2, both or all
+    # cameras): pixels off by more than T_L in V, and their blobs of 20+ px, 9144 / 50 in a
+    # row, 4905 / 10 at spacing 2, 3645 / 6 at 3, 2433 / 5 at 5.
+    train_spacing_frames: int = param(
+        3, "frames between two training frames (1 = the first train_frames in a row); a "
+        "shorter run spreads train_frames evenly over its frames", 1, 1000,
+    )
     fifo_n: int = param(8, "n: frames in the FIFO median (odd or even; median of n)", 1, 64)
     fifo_spacing_frames: int = param(5, "m: spacing in frames between FIFO samples", 1, 1000)
     t_low: float = param(0.10, "T_L: D_B above which a pixel is candidate foreground", 0.0, 1.0)

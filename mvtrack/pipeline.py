@@ -29,6 +29,7 @@ from mvtrack.stages.background import (
     BackgroundState,
     background_step,
     train_background,
+    training_offsets,
 )
 from mvtrack.stages.blobtrack import (
     TrackerState,
@@ -296,15 +297,18 @@ class RunSummary:
 
 
 def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, BackgroundState]:
-    """Each video camera's initial background: the median of the first ``train_frames`` frames."""
+    """Each video camera's initial background: the median of the frames of ``frames`` at
+    :func:`~mvtrack.stages.background.training_offsets` (``train_frames`` of them,
+    ``train_spacing_frames`` apart)."""
     video = [c for c in clip.spec.cameras if c.kind != "detections"]
     if not video:
         return {}
-    n = min(params.background.train_frames, len(frames))
+    picked = {frames[int(i)] for i in training_offsets(len(frames), params.background)}
     stacks: dict[str, list[np.ndarray]] = {c.name: [] for c in video}
-    for fs in clip.frames(range(frames.start, frames.start + n)):
-        for c in video:
-            stacks[c.name].append(fs.images[c.name])
+    for fs in clip.frames(range(frames.start, max(picked) + 1)):
+        if fs.index in picked:
+            for c in video:
+                stacks[c.name].append(fs.images[c.name])
     return {
         c.name: train_background(stacks[c.name], c.modality, params.background) for c in video
     }

@@ -29,6 +29,7 @@ from mvtrack.stages.background import (
     min_area_at,
     stacked_boxes,
     train_background,
+    training_offsets,
 )
 from mvtrack.stages.feet import feet_pca
 from mvtrack.stages.median import clamp, lower_median, median_network, order_statistics
@@ -586,6 +587,50 @@ def test_generated_pair_masks_and_shadows(tmp_path: Path) -> None:
     assert s["shadow_discrimination"] >= 0.88  # person pixels not called shadow
     assert hits / n_true >= 0.9  # people touching the frame border are not counted
     assert hits / n_pred >= 0.87
+
+
+@settings(max_examples=200, deadline=None)
+@given(n=st.integers(1, 120), spacing=st.integers(1, 6), available=st.integers(1, 800))
+def test_training_offsets_are_spaced_and_spread_over_short_runs(
+    n: int, spacing: int, available: int
+) -> None:
+    offsets = training_offsets(available, BackgroundConfig(train_frames=n,
+                                                           train_spacing_frames=spacing))
+    assert len(offsets) == min(n, available) and offsets[0] == 0
+    assert np.all(np.diff(offsets) >= 1) and offsets[-1] < available  # distinct frames of the run
+    if (n - 1) * spacing < available:  # room for the spacing: exactly that
+        assert np.array_equal(offsets, np.arange(n) * spacing)
+    else:  # a short run: spread evenly to its end, steps differing by at most one frame
+        steps = np.diff(offsets)
+        assert offsets[-1] == available - 1 and (len(steps) == 0 or np.ptp(steps) <= 1)
+
+
+def test_spaced_training_does_not_learn_slow_walkers(tmp_path: Path) -> None:
+    """Generated 'crowd' people on the far grass walk 0.25 px/frame: over 50 frames in a row
+    the median keeps them (ghosts), over 50 frames 3 apart it does not."""
+    generate = pytest.importorskip("mvtrack.generate")
+    from mvtrack.io import open_clip
+    from mvtrack.params import load_params
+    from mvtrack.pipeline import train_backgrounds
+
+    clip_dir = generate.generate_clip(tmp_path / "c", "crowd", seed=0, frames=150,
+                                      size=(320, 240))
+    wrong = {}
+    for spacing in (1, 3):
+        params = load_params(None, ["background.train_frames=50",
+                                    f"background.train_spacing_frames={spacing}"])
+        with open_clip(clip_dir) as clip:
+            states = train_backgrounds(clip, range(clip.spec.frame_count), params)
+        for cam, state in states.items():
+            truth = cv2.imread(str(clip_dir / "truth" / "background" / f"{cam}.png"))
+            off = np.abs(state.model.bgr.max(axis=2).astype(np.int16)
+                         - truth.max(axis=2).astype(np.int16))  # V = max(B, G, R)
+            wrong[spacing, cam] = int((off > 255 * params.background.t_low).sum())
+    print("trained B pixels off the true background by > T_L:", wrong)
+    # measured: 1444 / 1335 px in a row, 243 / 218 px spaced (cam0 / cam1)
+    for cam in ("cam0", "cam1"):
+        assert wrong[1, cam] > 1000  # the scene does have slow walkers
+        assert wrong[3, cam] < 400 and wrong[3, cam] < wrong[1, cam] / 4
 
 
 @pytest.mark.parametrize(

@@ -1,6 +1,6 @@
 """Sakbot background subtraction (SPEC §1, thesis §3.2.1; Cucchiara et al.).
 
-    state = train_background(first_frames, "rgb", cfg)      # median of the first frames
+    state = train_background(training_frames, "rgb", cfg)   # their per-pixel median
     for frame in frames:
         state, result = background_step(state, frame, cfg)  # result.mvo_labels -> tracker
 
@@ -19,6 +19,11 @@ Per frame, against the current background B:
 
 Choices beyond the thesis (each with its config field):
 
+- **Training spread over time.** B starts as the median of ``train_frames`` frames taken
+  ``train_spacing_frames`` apart from the start (:func:`training_offsets`), not of the first
+  ``train_frames`` in a row: a walker slower than a body width per ``train_frames / 2`` frames
+  covers a pixel in most of a short run and is learned as background, and its ghost trail then
+  joins the people who pass it (stacked fragments, one blob) and is never absorbed.
 - **Colour needs light.** S is noise on dark pixels and hue on nearly gray ones (PETS: gray
   pavement). The S terms (of D_B and the shadow test) apply only where I and B both have
   V > ``colour_min_value``, the hue terms only where both also have S > ``hue_min_sat``;
@@ -78,6 +83,7 @@ __all__ = [
     "min_area_at",
     "stacked_boxes",
     "train_background",
+    "training_offsets",
 ]
 
 _MODALITIES = ("rgb", "gray")
@@ -366,10 +372,24 @@ def _flow_gray(value: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
     return cv2.resize(gray, size, interpolation=cv2.INTER_AREA)
 
 
+def training_offsets(available: int, cfg: BackgroundConfig) -> np.ndarray:
+    """(n,) int64 offsets from a run's first frame of the frames whose median is the initial
+    background: ``train_frames`` of them, ``train_spacing_frames`` apart; a run too short for
+    that spreads them evenly over its frames (all of them when it has at most ``train_frames``).
+    available: frames in the run, >= 1."""
+    if available < 1:
+        raise ValueError(f"training_offsets: available = {available}, expected >= 1")
+    n = min(cfg.train_frames, available)
+    span = min((n - 1) * cfg.train_spacing_frames + 1, available)
+    # span >= n, so the n points are at least 1 apart and round to distinct frames
+    return np.linspace(0, span - 1, n).round().astype(np.int64)
+
+
 def train_background(
     frames: Sequence[np.ndarray], modality: str, cfg: BackgroundConfig
 ) -> BackgroundState:
-    """The initial state: B = per-pixel lower median of the first ``train_frames`` frames.
+    """The initial state: B = per-pixel lower median of the first ``train_frames`` of
+    ``frames`` (the frames at :func:`training_offsets` of the run).
 
     frames: BGR (H,W,3) uint8 or gray (H,W) uint8 (a gray camera may also be given BGR frames,
     which are converted). modality: "rgb" or "gray". The FIFO is filled with B.
