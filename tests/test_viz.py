@@ -209,6 +209,18 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
         assert 0 in lines["frames"] and 1 < lines["rows"] < 100
         assert 0 in markers["frames"] and markers["rows"] <= 100 // 5 + 1
         assert (markers["rows"] > 1) == (info["markers"] > 0)
+        names = _column(rrd, paths.camera_pair_layer(cam, "fov_names", other), "Points2D:labels")
+        strips = _column(rrd, paths.camera_pair_layer(cam, "fov_lines", other),
+                         "LineStrips2D:strips")
+        at = _column(rrd, paths.camera_pair_layer(cam, "fov_names", other), "Points2D:positions")
+        last = max(strips)  # each line is named off its middle, where people cross it
+        assert len(names[last]) == len(strips[last]) == len(at[last])
+        for name, (p, q), x in zip(names[last], strips[last], at[last], strict=True):
+            assert name.startswith(other) and name.endswith(" edge")
+            low, high = (p, q) if p[1] >= q[1] else (q, p)
+            t = np.dot(np.subtract(x, low), np.subtract(high, low)) / np.sum(
+                np.subtract(high, low) ** 2)
+            assert t == pytest.approx(0.1)
     if n_lines:
         hough = rec[paths.hough_accumulators(a, b)]
         assert "EncodedImage:blob" in hough["columns"] and hough["rows"] >= 1
@@ -218,18 +230,23 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
         assert rec[paths.camera_pair_layer(b, "projected", a)]["rows"] >= 1
 
 
-def _box_labels(rrd: Path, cam: str, layer: str = "resolved") -> dict[int, list[str]]:
-    """Frame -> labels of the boxes on ``/cameras/{cam}/{layer}`` (latest row per frame)."""
-    out: dict[int, list[str]] = {}
+def _column(rrd: Path, entity: str, column: str) -> dict[int, list[Any]]:
+    """Frame -> the values of ``column`` on ``entity`` (latest row per frame)."""
+    out: dict[int, list[Any]] = {}
     for chunk in RrdReader(rrd).store().stream().to_chunks():
-        if str(chunk.entity_path) != paths.camera_layer(cam, layer):
+        if str(chunk.entity_path) != entity:
             continue
         rb = chunk.to_record_batch()
-        if "frame" in rb.schema.names:
-            for f, labels in zip(rb.column("frame").to_pylist(),
-                                 rb.column("Boxes2D:labels").to_pylist(), strict=True):
-                out[f] = list(labels or [])
+        if "frame" in rb.schema.names and column in rb.schema.names:
+            for f, values in zip(rb.column("frame").to_pylist(),
+                                 rb.column(column).to_pylist(), strict=True):
+                out[f] = list(values or [])
     return out
+
+
+def _box_labels(rrd: Path, cam: str, layer: str = "resolved") -> dict[int, list[str]]:
+    """Frame -> labels of the boxes on ``/cameras/{cam}/{layer}`` (latest row per frame)."""
+    return _column(rrd, paths.camera_layer(cam, layer), "Boxes2D:labels")
 
 
 def test_resolved_layer_shows_what_mvtrack_track_writes(

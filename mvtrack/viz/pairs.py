@@ -27,6 +27,7 @@ __all__ = ["homographies_to_reference", "hough_image", "hough_mosaic", "log_pair
 _TILE_W, _TILE_H = 180, 120  # one accumulator in the mosaic, mosaic pixels
 _CUE_RADIUS_PX = 8.0  # hollow ring radius of projected targets, viewer pixels
 _NEAR_FRAME_FRAC = 0.1  # projections drawn up to this fraction of the frame outside it
+_NAME_AT = 0.1  # an FOV line's name: this fraction of the way along it from its lower end
 
 
 def _valid_H(pr: Any) -> np.ndarray | None:
@@ -111,10 +112,18 @@ def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResu
             labels[slot.seen_in].append(f"{slot.edge_of} {slot.side} edge")
     for cam in (a, b):
         other = b if cam == a else a
+        # Named near the line's lower end, not at its middle (Rerun's place for a strip's
+        # label), where it covered the people walking across it.
+        ends = [s[np.argsort(-s[:, 1])] for s in strips[cam]]
+        names = np.array([s[0] + _NAME_AT * (s[1] - s[0]) for s in ends]).reshape(-1, 2)
         sink.log_changed(paths.camera_pair_layer(cam, "fov_lines", other),
-                         strips_key(strips[cam], labels[cam]),
-                         partial(rr.LineStrips2D, strips[cam], labels=labels[cam],
-                                 colors=(0, 255, 255), radii=1.5, draw_order=8.0))
+                         strips_key(strips[cam], []),
+                         partial(rr.LineStrips2D, strips[cam], colors=(0, 255, 255), radii=1.5,
+                                 draw_order=8.0))
+        sink.log_changed(paths.camera_pair_layer(cam, "fov_names", other),
+                         strips_key([names], labels[cam]),
+                         partial(rr.Points2D, names, labels=labels[cam], colors=(0, 255, 255),
+                                 radii=1.5, draw_order=8.0))
     if pr.reestimated:
         _log_hough(sink, key, pr)
         for idx, side in pr.reestimated:

@@ -36,6 +36,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     this frame (the event is in the target's label)
     /cameras/{cam}/fov_lines/{other}  LineStrips2D: the learned FOV lines of camera ``other``'s
                                     edges, seen in ``cam``
+    /cameras/{cam}/fov_names/{other}  Points2D: each of those lines' name ("{other} {side}
+                                    edge"), a tenth of the way up from its lower end
     /cameras/{cam}/markers/{other}  Points2D: the markers of pair (cam, other), cam's side
     /cameras/{cam}/projected/{other}  Points2D: ``other``'s targets projected into ``cam``
                                     through the pair's homography, class id = meta
@@ -145,7 +147,7 @@ CAMERA_LAYERS = (
 )
 """Layers of a camera that have no second camera in their path."""
 
-CAMERA_PAIR_LAYERS = ("fov_lines", "markers", "projected")
+CAMERA_PAIR_LAYERS = ("fov_lines", "fov_names", "markers", "projected")
 """Layers of a camera drawn from a pair: ``/cameras/{cam}/{layer}/{other}``."""
 
 PAIR_LAYERS = ("quality_px", "markers", "links")
