@@ -717,6 +717,22 @@ class HomographyConfig(_Checked):
         0.5, "robust fit: refine on every marker, Cauchy loss of this fraction of the inlier "
         "threshold (symmetric transfer residuals; 0 = off)", 0.0, 100.0,
     )
+    # A co-motion or FOV link of two different people leaves markers that a wrong H can
+    # half fit (generated 'pillar' s4: one such link, 11 markers, gave an H 54 px off from
+    # frame 350 on, consistency 0.38). 3, not 5: at 5 'one_edge' s5 kept a wrong link
+    # (ratio 3.9) and lost its H (IDF1 0.998 -> 0.780). Sweep, defaults, 48 clips of seeds
+    # 0-5: IDF1 0.9398 -> 0.9444, consistency 0.9696 -> 0.9835 (pillar s4 0.775 -> 0.981,
+    # tilted s3 0.928 -> 0.946), worst-pair H p90 mean 10.9 -> 9.0 px; seeds 0-2 with RANSAC
+    # draws 1 / 2: labels equal / crowd s2 0.917 -> 0.951, H p90 mean 7.2 -> 6.9 / 8.8 ->
+    # 8.2 px; held-out seeds 6-7: labels equal, H p90 mean 16.0 -> 13.2 px.
+    link_refute_factor: float = param(
+        3.0, "robust fit: a link with link_min_markers markers or more, under half of them "
+        "inliers, is wrong when the other links' inliers put its markers this many inlier "
+        "thresholds off (median); the fit is repeated without it (0 = off)", 0.0, 1000.0,
+    )
+    link_min_markers: int = param(
+        4, "robust fit: markers a link needs before it can be judged wrong", 1, 100000
+    )
     refit_growth_frac: float = param(
         0.2, "re-fit when the marker count grew by this fraction since the last fit", 0.0, 100.0
     )

@@ -377,3 +377,75 @@ def test_refit_keeps_the_consensus_of_the_homography_in_use() -> None:
     cold = [p90(fit_homography(a, b, cfg, np.random.default_rng(s))) for s in range(20)]
     assert max(warm) < 2.5, warm
     assert sum(e > 10.0 for e in cold) >= 5, cold
+
+
+def _links(rng: np.random.Generator, H: np.ndarray, n_right: int, noise_px: float = 1.0
+           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Markers of ``n_right`` right links (straight walks, 6 markers each, feet noise) and one
+    wrong link of 10: two people whose paths cross, A seeing one and B the other, so the
+    four markers near the crossing fit H by chance. Returns pts_a, pts_b, groups (wrong = -1)."""
+    pts_a, pts_b, groups = [], [], []
+    for g in range(n_right):
+        start, step = _points(rng, 1)[0], rng.normal(0, 40, 2)
+        a = start + np.arange(6)[:, None] * step
+        pts_a.append(a)
+        pts_b.append(apply_homography(H, a) + rng.normal(0, noise_px, a.shape))
+        groups += [g] * 6
+    t = np.arange(10)[:, None]
+    a = np.array([200.0, 300.0]) + t * [30.0, 5.0] + 15 * np.sin(t / 2) * [0.0, 1.0]
+    apart = np.array([-40.0, -30, -20, -2, -1, 1, 2, 20, 30, 40])  # px, crossing mid-way
+    other = a + apart[:, None] * [0.3, 1.0]
+    pts_a.append(a)
+    pts_b.append(apply_homography(H, other))
+    groups += [-1] * 10
+    return np.concatenate(pts_a), np.concatenate(pts_b), np.array(groups)
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_a_wrong_link_is_left_out_of_the_fit(seed: int) -> None:
+    """Its chance inliers near the crossing are dropped with the rest of its markers."""
+    rng = np.random.default_rng(seed)
+    H = _ground_homography(rng)
+    pts_a, pts_b, groups = _links(rng, H, 4)
+    wrong = groups == -1
+    cfg = HomographyConfig()
+    est = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(0), groups=groups)
+    assert isinstance(est, HomographyEstimate)
+    assert not est.inliers[wrong].any() and est.inliers[~wrong].mean() > 0.8
+    assert len(est.errors_px) == est.n_markers == len(pts_a)
+    grid = _points(rng, 200)
+    assert np.median(transfer_errors(est.H_b_from_a, grid, apply_homography(H, grid))) < 3.0
+    off = fit_homography(pts_a, pts_b, replace(cfg, link_refute_factor=0.0),
+                         np.random.default_rng(0), groups=groups)
+    assert isinstance(off, HomographyEstimate) and off.inliers[wrong].any()
+
+
+def test_a_right_link_with_noisy_feet_is_kept() -> None:
+    """Feet noise beyond the inlier threshold leaves most of a right link's markers
+    outliers, but the other links put them near: the fit is the plain robust one."""
+    rng = np.random.default_rng(7)
+    H = _ground_homography(rng)
+    pts_a, pts_b, groups = _links(rng, H, 4)
+    right = groups >= 0
+    pts_b[groups == 0] += rng.normal(0, 8.0, (6, 2))
+    cfg = HomographyConfig()
+    est = fit_homography(pts_a[right], pts_b[right], cfg, np.random.default_rng(0),
+                         groups=groups[right])
+    off = fit_homography(pts_a[right], pts_b[right], replace(cfg, link_refute_factor=0.0),
+                         np.random.default_rng(0), groups=groups[right])
+    assert isinstance(est, HomographyEstimate) and isinstance(off, HomographyEstimate)
+    assert est.inliers[groups[right] == 0].mean() < 0.5  # a suspect, not refuted
+    assert np.array_equal(est.inliers, off.inliers)
+
+
+def test_without_its_wrong_link_too_few_links_give_no_homography() -> None:
+    """Two right links and a wrong one whose chance inliers make the third: no H at all."""
+    rng = np.random.default_rng(3)
+    H = _ground_homography(rng)
+    pts_a, pts_b, groups = _links(rng, H, 2)
+    cfg = HomographyConfig(min_markers=6)
+    off = fit_homography(pts_a, pts_b, replace(cfg, link_refute_factor=0.0),
+                         np.random.default_rng(0), groups=groups)
+    assert off  # the wrong link's chance inliers count as a third target pair
+    est = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(0), groups=groups)
+    assert not est and "without a wrong link" in est.reason and "2 target pairs" in est.reason
