@@ -726,8 +726,8 @@ class HomographyConfig(_Checked):
     # draws 1 / 2: labels equal / crowd s2 0.917 -> 0.951, H p90 mean 7.2 -> 6.9 / 8.8 ->
     # 8.2 px; held-out seeds 6-7: labels equal, H p90 mean 16.0 -> 13.2 px. PETS S2L1, six
     # views as detections, draws 0-2: IDF1 0.500 / 0.467 / 0.464 -> 0.463 / 0.485 / 0.464,
-    # mean of the 15 pairs' median H error 11.7 / 12.1 / 12.2 -> 12.7 / 12.7 / 12.3 px; every
-    # link left out there is off by its median by over 3 thresholds under the calibration too.
+    # mean of the 15 pairs' median H error 11.7 / 12.1 / 12.2 -> 12.7 / 12.7 / 12.3 px; each
+    # link left out in draw 0 is off by over 3 thresholds (median) under the calibration too.
     link_refute_factor: float = param(
         3.0, "robust fit: a link with link_min_markers markers or more, under half of them "
         "inliers, is wrong when the other links' inliers put its markers this many inlier "
