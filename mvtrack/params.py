@@ -79,7 +79,8 @@ class BackgroundConfig(_Checked):
     # cameras): pixels off by more than T_L in V, and their blobs of 20+ px, 9144 / 50 in a
     # row, 4905 / 10 at spacing 2, 3645 / 6 at 3, 2433 / 5 at 5. `mvtrack sweep`, 1 -> 3:
     # seeds 0-2 IDF1 0.946 -> 0.951, consistency 0.988 -> 0.989; seeds 3-5 0.925 -> 0.929,
-    # consistency 0.970 -> 0.950 (pillar s4 learns a wrong H from two wrong FOV associations);
+    # consistency 0.970 -> 0.950 (pillar s4 learns a wrong H from a co-motion link of two
+    # people; homography.link_refute_factor now leaves such links out);
     # held-out 6-7 0.908 -> 0.918, consistency 0.900 -> 0.911; 'crowd' s0-s5 all >= 0.866
     # (were 0.823-0.943); worst-camera precision 0.940 -> 0.949; PETS View_001 recall 0.976 ->
     # 0.978, precision 0.897 -> 0.900. Training reads 3x the frames: PETS 0.8 -> 0.9 s.

@@ -112,23 +112,25 @@ def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResu
             labels[slot.seen_in].append(f"{slot.edge_of} {slot.side} edge")
     for cam in (a, b):
         other = b if cam == a else a
-        # Named near the line's lower end, not at its middle (Rerun's place for a strip's
-        # label), where it covered the people walking across it.
-        ends = [s[np.argsort(-s[:, 1])] for s in strips[cam]]
-        names = np.array([s[0] + _NAME_AT * (s[1] - s[0]) for s in ends]).reshape(-1, 2)
-        sink.log_changed(paths.camera_pair_layer(cam, "fov_lines", other),
-                         strips_key(strips[cam], []),
+        shown = strips_key(strips[cam], labels[cam])  # the names follow from the lines
+        sink.log_changed(paths.camera_pair_layer(cam, "fov_lines", other), shown,
                          partial(rr.LineStrips2D, strips[cam], colors=(0, 255, 255), radii=1.5,
                                  draw_order=8.0))
-        sink.log_changed(paths.camera_pair_layer(cam, "fov_names", other),
-                         strips_key([names], labels[cam]),
-                         partial(rr.Points2D, names, labels=labels[cam], colors=(0, 255, 255),
-                                 radii=1.5, draw_order=8.0))
+        sink.log_changed(paths.camera_pair_layer(cam, "fov_names", other), shown,
+                         partial(_line_names, strips[cam], labels[cam]))
     if pr.reestimated:
         _log_hough(sink, key, pr)
         for idx, side in pr.reestimated:
             sink.event(f"pair {paths.pair_name(a, b)}: FOV line of {key[1 - idx]} {side} "
                        f"re-estimated in {key[idx]}", rr.TextLogLevel.DEBUG)
+
+
+def _line_names(strips: list[np.ndarray], labels: list[str]) -> rr.Points2D:
+    """Each FOV line's name near its lower end, not at its middle (Rerun's place for a
+    strip's label), where it covered the people walking across the line."""
+    ends = [s[np.argsort(-s[:, 1])] for s in strips]
+    at = np.array([s[0] + _NAME_AT * (s[1] - s[0]) for s in ends]).reshape(-1, 2)
+    return rr.Points2D(at, labels=labels, colors=(0, 255, 255), radii=1.5, draw_order=8.0)
 
 
 def hough_mosaic(key: tuple[str, str], slots: Sequence[Any]
