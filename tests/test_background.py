@@ -22,6 +22,7 @@ from mvtrack.stages.background import (
     SizeModel,
     _area_thresholds,
     _fit_sizes,
+    _fragment_links,
     _grow_down,
     _learn_sizes,
     background_step,
@@ -216,6 +217,39 @@ def test_stacked_fragments_are_one_blob_side_by_side_people_two() -> None:
         frame = _fragments_frame(np.random.default_rng(5), 20 + 4 * t, 3)[1]
         state, r = background_step(state, _noisy(frame, rng), off)
     assert len(r.blobs) == 2
+
+
+def test_people_one_behind_the_other_are_two_blobs_where_the_size_line_says_so() -> None:
+    """Two whole people stacked 3 px apart pass the fragment test (generated pair seed 1: a
+    person walking in behind another, above their head). Taller together than 1.4 times the
+    30 px the camera's size line predicts, and each at least 0.7 of that, they stay two blobs;
+    a head fragment above its body (41 px together) still joins it. Without a size line the
+    two people are one blob, as before the line is learned."""
+    rng = np.random.default_rng(6)
+    ground = _ground(rng)
+    rows = np.linspace(40.0, 119.0, 60)
+    people_30 = SizeModel(np.c_[rows, np.full(60, 30.0)], (0.0, 30.0))
+
+    def last_step(sizes: SizeModel, two_people: bool) -> BackgroundResult:
+        state = dataclasses.replace(_train(ground, rng), sizes=sizes)
+        for t in range(4):
+            if two_people:
+                frame = _paste(ground, _person(rng), 40 + 3 * t, 10)  # rows 10-39
+                frame = _paste(frame, _person(rng), 42 + 3 * t, 43)  # rows 43-72
+            else:
+                frame = _fragments_frame(np.random.default_rng(5), 20 + 4 * t, 3)[1]
+            state, r = background_step(state, _noisy(frame, rng), CFG)
+        return r
+
+    assert len(last_step(people_30, two_people=True).blobs) == 2
+    assert len(last_step(SizeModel(), two_people=True).blobs) == 1
+    assert len(last_step(people_30, two_people=False).blobs) == 1
+    # a head above a body taller than the line says (46 px together > 1.4 x 30) is still one
+    # person: the head is no whole person (8 px < 0.7 x 30)
+    head_body = np.array([[10.0, 10.0, 8.0, 8.0], [8.0, 20.0, 12.0, 36.0]])
+    assert _fragment_links(head_body, people_30, CFG)[0, 1]
+    any_part_whole = dataclasses.replace(CFG, group_whole_frac=0.2)
+    assert not _fragment_links(head_body, people_30, any_part_whole)[0, 1]
 
 
 @pytest.mark.parametrize(

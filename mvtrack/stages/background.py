@@ -82,6 +82,7 @@ __all__ = [
     "link_groups",
     "min_area_at",
     "stacked_boxes",
+    "too_tall_unions",
     "train_background",
     "training_offsets",
 ]
@@ -796,6 +797,26 @@ def stacked_boxes(
     return stacked
 
 
+def too_tall_unions(
+    box_xywh: np.ndarray, sizes: SizeModel | None, max_frac: float
+) -> np.ndarray | None:
+    """(K, K) bool: pairs of boxes (K, 4) whose union is taller than ``max_frac`` times the
+    person height ``sizes`` predicts at the union's bottom row: two people, one behind the
+    other, not the parts of one. The diagonal is False. None without a prediction (no size
+    model yet, or ``max_frac`` 0)."""
+    if sizes is None or max_frac <= 0:
+        return None
+    top, bottom = box_xywh[:, 1], box_xywh[:, 1] + box_xywh[:, 3]
+    union_bottom = np.maximum(bottom[:, None], bottom)
+    person = sizes.height_at(union_bottom)
+    if person is None:
+        return None
+    union_h = union_bottom - np.minimum(top[:, None], top)
+    too_tall = (person > 0) & (union_h > max_frac * person)  # NaN (off a band's rows): False
+    np.fill_diagonal(too_tall, False)
+    return too_tall
+
+
 def box_intersections(box_xywh: np.ndarray, other_xywh: np.ndarray | None = None) -> np.ndarray:
     """(K, M) float64: the area each box (K, 4) [x, y, w, h] shares with each of ``other_xywh``
     (M, 4) (default: the same boxes, K x K), 0 apart."""
@@ -829,10 +850,12 @@ def link_groups(linked: np.ndarray) -> tuple[int, np.ndarray]:
     return len(names), group
 
 
-def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
+def _fragment_links(box_xywh: np.ndarray, sizes: SizeModel, cfg: BackgroundConfig) -> np.ndarray:
     """(K, K) bool: components that look like fragments of one person: stacked
-    (:func:`stacked_boxes`) or one box inside the other (at least ``group_contained_frac`` of
-    the smaller box's area). box_xywh: (K, 4) float64."""
+    (:func:`stacked_boxes`) unless both are whole people (each at least ``group_whole_frac``
+    of the person height ``sizes`` predicts at its bottom) taller together than one
+    (:func:`too_tall_unions`), or one box inside the other (at least ``group_contained_frac``
+    of the smaller box's area). box_xywh: (K, 4) float64."""
     stacked = stacked_boxes(
         box_xywh,
         cfg.group_x_overlap_frac,
@@ -840,18 +863,29 @@ def _fragment_links(box_xywh: np.ndarray, cfg: BackgroundConfig) -> np.ndarray:
         cfg.group_y_overlap_frac,
         cfg.group_max_aspect,
     )
+    too_tall = too_tall_unions(box_xywh, sizes, cfg.group_max_height_frac)
+    person = sizes.height_at(box_xywh[:, 1] + box_xywh[:, 3])
+    if too_tall is not None and person is not None:
+        with np.errstate(invalid="ignore"):
+            whole = box_xywh[:, 3] >= cfg.group_whole_frac * person  # NaN rows: False
+        stacked &= ~(too_tall & whole[:, None] & whole)
     area = box_xywh[:, 2] * box_xywh[:, 3]
     inter = box_intersections(box_xywh)
     return stacked | (inter >= cfg.group_contained_frac * np.minimum(area[:, None], area))
 
 
 def _group_fragments(
-    comp_labels: np.ndarray, stats: np.ndarray, index: np.ndarray, cfg: BackgroundConfig
+    comp_labels: np.ndarray,
+    stats: np.ndarray,
+    index: np.ndarray,
+    sizes: SizeModel,
+    cfg: BackgroundConfig,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Join the connected components that are fragments of one person into one blob.
 
     comp_labels: (H,W) int32 components 0..K; stats: (K+1, 5) OpenCV component stats;
-    index: (P,) int64 flat indices of the labelled (candidate) pixels.
+    index: (P,) int64 flat indices of the labelled (candidate) pixels; sizes: the camera's
+    person heights, which bound a group's height.
     Returns the blob label image (H,W) int32 0..G and the blobs' stats (G+1, 5) in the same
     layout (box of the union, summed area). Blob labels follow the order of each blob's first
     component, so with no links the components are returned unchanged.
@@ -859,7 +893,7 @@ def _group_fragments(
     k = stats.shape[0] - 1
     if k < 2 or not cfg.group_fragments:
         return comp_labels, stats
-    links = _fragment_links(stats[1:, :4].astype(np.float64), cfg)
+    links = _fragment_links(stats[1:, :4].astype(np.float64), sizes, cfg)
     n_groups, group = link_groups(links)
     if n_groups == k:
         return comp_labels, stats
@@ -1029,7 +1063,7 @@ def background_step(
         candidate.view(np.uint8), 8, cv2.CV_32S, cv2.CCL_GRANA
     )
     index = np.flatnonzero(candidate)  # the few candidate pixels: cheaper than full gathers
-    blob_labels, stats = _group_fragments(comp_labels, comp_stats, index, cfg)
+    blob_labels, stats = _group_fragments(comp_labels, comp_stats, index, state.sizes, cfg)
     assert planes[2] is not None
     flow_gray = _flow_gray(planes[2], cfg)
     k = stats.shape[0] - 1

@@ -65,7 +65,13 @@ from scipy.ndimage import uniform_filter1d
 from scipy.signal import find_peaks
 
 from mvtrack.params import TrackerConfig
-from mvtrack.stages.background import SizeModel, box_intersections, link_groups, stacked_boxes
+from mvtrack.stages.background import (
+    SizeModel,
+    box_intersections,
+    link_groups,
+    stacked_boxes,
+    too_tall_unions,
+)
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -487,7 +493,7 @@ class _Frame:
 def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     """(K, K) bool: boxes (K, 4) stacked like the parts of one person (TrackerConfig.fragment_*):
     :func:`stacked_boxes`, and no taller together than ``fragment_max_height_frac`` times the
-    person height the size line predicts at their union's bottom (when there is a line)."""
+    person height the size line predicts at their union's bottom (:func:`too_tall_unions`)."""
     cfg = ctx.cfg
     stacked = stacked_boxes(
         box_xywh,
@@ -496,16 +502,8 @@ def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
         cfg.fragment_y_overlap_frac,
         cfg.fragment_max_aspect,
     )
-    top, bottom = box_xywh[:, 1], box_xywh[:, 1] + box_xywh[:, 3]
-    union_bottom = np.maximum(bottom[:, None], bottom)
-    sizes = ctx.size_model if cfg.fragment_max_height_frac > 0 else None
-    person = None if sizes is None else sizes.height_at(union_bottom)
-    if person is None:
-        return stacked
-    union_h = union_bottom - np.minimum(top[:, None], top)
-    too_tall = (person > 0) & (union_h > cfg.fragment_max_height_frac * person)
-    np.fill_diagonal(too_tall, False)
-    return stacked & ~too_tall
+    too_tall = too_tall_unions(box_xywh, ctx.size_model, cfg.fragment_max_height_frac)
+    return stacked if too_tall is None else stacked & ~too_tall
 
 
 def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
