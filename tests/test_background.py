@@ -306,6 +306,32 @@ def test_removed_object_ghost_fails_the_edge_test_even_when_it_moves() -> None:
     assert r.blobs.is_mvo.sum() == 1 and np.isnan(r.blobs.edge_frame).all()
 
 
+def test_ghost_with_a_neighbours_flow_but_no_changed_pixel_does_not_move() -> None:
+    """DIS spreads a walker's flow over the ghost beside it (generated pair seed 3). Here every
+    blob passes the flow test (T_AOF 0) and the edge test is off: the ghost of an object
+    present in training changes no pixel, so it stops being an MVO once its hold runs out and
+    the median absorbs it; the walker beside it, whose pixels change, stays one."""
+    rng = np.random.default_rng(4)
+    ground = _ground(rng)
+    cfg = dataclasses.replace(CFG, min_mean_flow_px=0.0, edge_ghost_ratio=0.0, mvo_hold_frames=5)
+
+    def run(cfg: BackgroundConfig) -> tuple[list[bool], list[bool]]:
+        state = _train(_paste(ground, _person(rng), 70, 40), rng, cfg=cfg)
+        ghost, walker = [], []
+        for t in range(20):  # the walker's right side ends 8 px left of the ghost
+            frame = _paste(ground, _person(rng), 10 + 2 * t, 45)
+            state, r = background_step(state, _noisy(frame, rng), cfg)
+            ghost.append(bool(r.mvo_labels[50:65, 74:80].any()))
+            walker.append(bool(r.mvo_labels[50:65, 15 + 2 * t : 19 + 2 * t].any()))
+        return ghost, walker
+
+    ghost, walker = run(cfg)
+    assert all(walker)
+    assert ghost[0] and not any(ghost[2 + cfg.mvo_hold_frames :])  # an MVO, then held
+    ghost_off, _ = run(dataclasses.replace(cfg, still_changed_frac=0.0))
+    assert ghost_off[-1]  # without the test, flow alone keeps the ghost an MVO
+
+
 @pytest.mark.parametrize("hold", [0, 5])
 def test_person_who_stops_is_held_for_a_bounded_time(hold: int) -> None:
     rng = np.random.default_rng(3)

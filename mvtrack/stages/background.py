@@ -201,7 +201,8 @@ class BlobTable:
                   0..510) of the frame and of B on the blob's boundary pixels (NaN: test off)
     area_ok, strong_ok, flow_ok: (K,) bool, the thesis's three MVO tests (flow_ok is True
                   when NaN)
-    moving_ok:    (K,) bool, flow_ok or changed_frac >= min_changed_frac
+    moving_ok:    (K,) bool, flow_ok or changed_frac >= min_changed_frac, but never with
+                  changed_frac under ``still_changed_frac`` (its flow is the neighbours')
     edge_ok:      (K,) bool, not a ghost by the edge test (True when the test is off)
     held:         (K,) bool, kept an MVO though not moving, or though under T_area (but above
                   ``hold_area_frac`` of it): it passes the other tests, overlaps last frame's
@@ -622,7 +623,10 @@ def _blob_table(
     strong_ok = ev.max8 > _u8_floor(cfg.t_high)
     flow_ok = np.isnan(ev.mean_flow) | (ev.mean_flow > cfg.min_mean_flow_px)
     changed_ok = (cfg.min_changed_frac > 0) & (ev.changed_frac >= cfg.min_changed_frac)
-    moving_ok = flow_ok | changed_ok
+    # DIS spreads a walker's flow over the still blob beside it (the ghost of a person who
+    # stood there during training): a blob none of whose pixels changed does not move.
+    still = ev.changed_frac < cfg.still_changed_frac  # NaN (no previous frame): False
+    moving_ok = (flow_ok & ~still) | changed_ok
     with np.errstate(invalid="ignore"):
         edge_ok = ~(ev.edge_frame < cfg.edge_ghost_ratio * ev.edge_background)
     still_ok = area_ok & strong_ok & edge_ok
