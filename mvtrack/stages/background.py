@@ -868,7 +868,8 @@ def _fragment_links(box_xywh: np.ndarray, sizes: SizeModel, cfg: BackgroundConfi
         cfg.group_max_aspect,
     )
     too_tall = too_tall_unions(box_xywh, sizes, cfg.group_max_height_frac)
-    person = sizes.height_at(box_xywh[:, 1] + box_xywh[:, 3])
+    person = None if too_tall is None or not too_tall.any() else sizes.height_at(
+        box_xywh[:, 1] + box_xywh[:, 3])  # only when some union is too tall: rare
     if too_tall is not None and person is not None:
         with np.errstate(invalid="ignore"):
             whole = box_xywh[:, 3] >= cfg.group_whole_frac * person  # NaN rows: False
