@@ -759,7 +759,9 @@ class HomographyConfig(_Checked):
     link_refute_factor: float = param(
         3.0, "robust fit: a link with link_min_markers markers or more, under half of them "
         "inliers, is wrong when the other links' inliers put its markers this many inlier "
-        "thresholds off (median); the fit is repeated without it (0 = off)", 0.0, 1000.0,
+        "thresholds off (median) and, if they are fewer than min_marker_groups links, it does "
+        "not put each of them within that either; the fit is repeated without it (0 = off)",
+        0.0, 1000.0,
     )
     link_min_markers: int = param(
         4, "robust fit: markers a link needs before it can be judged wrong", 1, 100000

@@ -449,3 +449,39 @@ def test_without_its_wrong_link_too_few_links_give_no_homography() -> None:
     assert off  # the wrong link's chance inliers count as a third target pair
     est = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(0), groups=groups)
     assert not est and "without a wrong link" in est.reason and "2 target pairs" in est.reason
+
+
+def test_a_right_link_off_the_walks_of_two_others_is_kept() -> None:
+    """The markers of generated 'three' seed 2, pair cam0-cam2, frame 575 (the only H that
+    pair could learn): link 0 is right but noisy (6 px median under the true H, 2 of 5
+    inliers); the other two links, one walk of 15 markers and 2 markers, put it 38 px off
+    by their DLT alone, extrapolating away from the walk, while it puts each of them within
+    3 thresholds when paired with the other: the link is kept and H is learned."""
+    groups = np.array([0] * 5 + [1] * 15 + [2] * 2)
+    pts_a = np.array([
+        [169.9, 174.0], [213.4, 182.5], [232.9, 187.5], [258.9, 195.5], [279.9, 187.0],
+        [139.5, 113.5], [160.0, 111.0], [166.4, 109.5], [176.4, 109.5], [189.0, 108.0],
+        [194.9, 106.0], [201.9, 107.5], [215.9, 105.5], [220.4, 103.0], [231.4, 103.0],
+        [242.4, 102.0], [247.4, 97.5], [259.4, 98.5], [270.4, 97.5], [286.8, 95.0],
+        [154.9, 58.0], [177.5, 63.0]])
+    pts_b = np.array([
+        [14.7, 87.0], [26.1, 89.0], [32.7, 89.5], [34.7, 89.0], [38.1, 87.5],
+        [9.1, 76.0], [18.6, 74.5], [22.2, 74.0], [27.2, 72.5], [30.2, 73.0],
+        [32.1, 72.0], [34.6, 72.0], [39.2, 71.0], [40.6, 71.0], [43.6, 70.0],
+        [47.2, 69.5], [49.6, 69.5], [51.6, 66.5], [56.7, 68.0], [59.0, 65.0],
+        [26.7, 61.0], [32.7, 62.0]])
+    H_true = np.array([[0.362044, -0.123845, -19.827304],
+                       [-0.012132, 0.37035, 47.167994],
+                       [0.000256, 0.001138, 1.0]])
+    cfg = HomographyConfig(ransac_threshold_px=6.5)  # the pair's gate: 0.15 of 43 px people
+    mine = groups == 0
+    judge = dlt(pts_a[~mine], pts_b[~mine])
+    assert np.median(transfer_errors(judge, pts_a[mine], pts_b[mine])) > (
+        cfg.link_refute_factor * cfg.ransac_threshold_px)
+    for seed in range(5):
+        est = fit_homography(pts_a, pts_b, cfg, np.random.default_rng(seed), groups=groups,
+                             heights=(65.6, 20.8))
+        assert isinstance(est, HomographyEstimate), est
+        assert est.inliers[mine].any()
+        errors = transfer_errors(est.H_b_from_a, pts_a, apply_homography(H_true, pts_a))
+        assert np.median(errors) < 2.0 and np.percentile(errors, 90) < 8.0
