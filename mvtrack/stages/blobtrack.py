@@ -667,18 +667,13 @@ def group_cuts(blob: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     h, w = blob.shape
     if not cfg.group_split or w < cfg.group_min_aspect * h or h < cfg.group_min_height_px:
         return np.zeros(0, np.int64)
-    top = np.where(blob.any(axis=0), h - np.argmax(blob, axis=0), 0).astype(np.float64)
-    person_px = cfg.group_person_width_frac * h
-    smooth = uniform_filter1d(top, max(int(person_px / 2), 1), mode="constant")
-    peaks, props = find_peaks(
-        np.r_[0.0, smooth, 0.0],
-        prominence=cfg.group_head_prominence_frac * h,
-        distance=max(person_px, 1.0),
-        plateau_size=1,
-    )
-    if len(peaks) < 2:
+    heads = _heads(blob, cfg)
+    if len(heads) >= 2 and cfg.group_min_head_area_frac > 0:
+        blob = _without_specks(blob, cfg.group_min_head_area_frac * h * h)
+        heads = _heads(blob, cfg)
+    if len(heads) < 2:
         return np.zeros(0, np.int64)
-    heads = (props["left_edges"] + props["right_edges"]) / 2.0 - 1.0  # plateau centres
+    person_px = cfg.group_person_width_frac * h
     cuts = (np.floor((heads[:-1] + heads[1:]) / 2.0) + 1).astype(np.int64)
     edges = np.r_[0, cuts, w]
     for a, z in itertools.pairwise(edges):
@@ -688,6 +683,30 @@ def group_cuts(blob: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
         if z - a < person_px or not tall:
             return np.zeros(0, np.int64)
     return cuts
+
+
+def _heads(blob: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
+    """(k,) float64 columns of the heads on a blob's top silhouette (:func:`group_cuts`)."""
+    h = blob.shape[0]
+    top = np.where(blob.any(axis=0), h - np.argmax(blob, axis=0), 0).astype(np.float64)
+    person_px = cfg.group_person_width_frac * h
+    smooth = uniform_filter1d(top, max(int(person_px / 2), 1), mode="constant")
+    _, props = find_peaks(
+        np.r_[0.0, smooth, 0.0],
+        prominence=cfg.group_head_prominence_frac * h,
+        distance=max(person_px, 1.0),
+        plateau_size=1,
+    )
+    return np.asarray((props["left_edges"] + props["right_edges"]) / 2.0 - 1.0)  # plateau centres
+
+
+def _without_specks(blob: np.ndarray, min_px: float) -> np.ndarray:
+    """The blob (h, w) bool without its connected components of fewer than ``min_px`` pixels
+    (specks left by a shadow's head or a noisy background: no head of anyone)."""
+    n, comp, stats, _ = cv2.connectedComponentsWithStats(blob.astype(np.uint8), connectivity=8)
+    keep = stats[:, cv2.CC_STAT_AREA] >= min_px
+    keep[0] = False
+    return np.asarray(keep[comp], bool) if n > 2 else blob
 
 
 def _mask_overlap(
