@@ -868,12 +868,12 @@ def _fragment_links(box_xywh: np.ndarray, sizes: SizeModel, cfg: BackgroundConfi
         cfg.group_max_aspect,
     )
     too_tall = too_tall_unions(box_xywh, sizes, cfg.group_max_height_frac)
-    person = None if too_tall is None or not too_tall.any() else sizes.height_at(
-        box_xywh[:, 1] + box_xywh[:, 3])  # only when some union is too tall: rare
-    if too_tall is not None and person is not None:
-        with np.errstate(invalid="ignore"):
-            whole = box_xywh[:, 3] >= cfg.group_whole_frac * person  # NaN rows: False
-        stacked &= ~(too_tall & whole[:, None] & whole)
+    if too_tall is not None and too_tall.any():  # rare: only then the heights at each bottom
+        person = sizes.height_at(box_xywh[:, 1] + box_xywh[:, 3])
+        if person is not None:
+            with np.errstate(invalid="ignore"):
+                whole = box_xywh[:, 3] >= cfg.group_whole_frac * person  # NaN rows: False
+            stacked &= ~(too_tall & whole[:, None] & whole)
     area = box_xywh[:, 2] * box_xywh[:, 3]
     inter = box_intersections(box_xywh)
     return stacked | (inter >= cfg.group_contained_frac * np.minimum(area[:, None], area))

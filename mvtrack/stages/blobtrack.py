@@ -660,9 +660,11 @@ def group_cuts(blob: np.ndarray, cfg: TrackerConfig) -> np.ndarray:
     more peaks at least ``group_person_width_frac * h`` apart (parts that wide and at least
     ``group_min_part_height_frac * h`` high) with dips of at least
     ``group_head_prominence_frac * h`` between them; the blob must be at least
-    ``group_min_aspect`` times as wide as high and ``group_min_height_px`` high. Each cut is
-    half-way between two heads. Returns (k,) int64 sorted cut columns (a part is
-    ``[cut_i, cut_{i+1})``), empty when the blob is one person (or ``group_split`` is off).
+    ``group_min_aspect`` times as wide as high and ``group_min_height_px`` high. When it shows
+    two heads or more, they are looked for again without the blob's components smaller than
+    ``group_min_head_area_frac * h**2`` (specks). Each cut is half-way between two heads.
+    Returns (k,) int64 sorted cut columns (a part is ``[cut_i, cut_{i+1})``), empty when the
+    blob is one person (or ``group_split`` is off).
     """
     h, w = blob.shape
     if not cfg.group_split or w < cfg.group_min_aspect * h or h < cfg.group_min_height_px:
