@@ -207,9 +207,10 @@ class BackgroundConfig(_Checked):
     # the union test on targets. `mvtrack sweep`, seeds 0-5: front-end recall 0.9662 ->
     # 0.9682, precision 0.9646 -> 0.9654, single-camera IDF1 0.9125 -> 0.9143 (also better
     # in RANSAC draws 1, 2 and held-out seeds 6-7); labels 0.9444 -> 0.9440, with three seed 2
-    # losing its cam0-cam2 H in draws 0 and 1 (README). Without the whole-part condition real
-    # fragments came apart too (one_edge seed 3 cam0 precision 0.943 -> 0.796; mean IDF1
-    # 0.9444 -> 0.9397); with 1.7 instead of 1.4 and no such condition: 0.9393.
+    # losing its cam0-cam2 H in draws 0 and 1 (a right link refuted by two others; since
+    # homography.link_refute_factor judges both ways, it is kept). Without the whole-part
+    # condition real fragments came apart too (one_edge seed 3 cam0 precision 0.943 -> 0.796;
+    # mean IDF1 0.9444 -> 0.9397); with 1.7 instead of 1.4 and no such condition: 0.9393.
     group_max_height_frac: float = param(
         1.4, "fragments: largest height of two joined whole people, as a fraction of the size "
         "line's person height at their bottom row (0 = no height test)", 0.0, 10.0,
