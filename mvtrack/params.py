@@ -770,6 +770,10 @@ class HomographyConfig(_Checked):
     # views as detections, draws 0-2: IDF1 0.500 / 0.467 / 0.464 -> 0.463 / 0.485 / 0.464,
     # mean of the 15 pairs' median H error 11.7 / 12.1 / 12.2 -> 12.7 / 12.7 / 12.3 px; each
     # link left out in draw 0 is off by over 3 thresholds (median) under the calibration too.
+    # Judged by fewer than min_marker_groups links, a suspect is judged both ways (three s2's
+    # right link, 4.0 thresholds off the DLT of one walk and 2 markers, was left out and the
+    # pair learned no H): seeds 0-2 IDF1 0.9475 -> 0.9504, consistency 0.9666 -> 0.9897 (only
+    # three s2 moves, 0.825 -> 0.893); seeds 3-5, held-out 6-7 and PETS unchanged.
     link_refute_factor: float = param(
         3.0, "robust fit: a link with link_min_markers markers or more, under half of them "
         "inliers, is wrong when the other links' inliers put its markers this many inlier "
