@@ -530,15 +530,23 @@ def _wrong_links(pts_a: np.ndarray, pts_b: np.ndarray, groups: np.ndarray, inlie
         others = inliers & ~mine
         if others.sum() < 4:
             continue
-        H = dlt(pts_a[others], pts_b[others])
-        if _matrix_problem(H, pts_a[others]):
-            continue
-        if np.median(transfer_errors(H, pts_a[mine], pts_b[mine])) <= limit:
+        off = _judged_off(pts_a, pts_b, others, mine)
+        if np.isnan(off) or off <= limit:
             continue
         few = len(np.unique(groups[others])) < cfg.min_marker_groups
         if not (few and _vindicated(pts_a, pts_b, groups, mine, others, limit)):
             out |= mine
     return out
+
+
+def _judged_off(pts_a: np.ndarray, pts_b: np.ndarray, judge: np.ndarray,
+                judged: np.ndarray) -> float:
+    """Median transfer error (px) of the ``judged`` markers under the DLT of the ``judge``
+    markers (both (N,) bool), NaN when that DLT is unusable (:func:`_matrix_problem`)."""
+    H = dlt(pts_a[judge], pts_b[judge])
+    if _matrix_problem(H, pts_a[judge]):
+        return float("nan")
+    return float(np.median(transfer_errors(H, pts_a[judged], pts_b[judged])))
 
 
 def _vindicated(pts_a: np.ndarray, pts_b: np.ndarray, groups: np.ndarray, mine: np.ndarray,
@@ -548,11 +556,8 @@ def _vindicated(pts_a: np.ndarray, pts_b: np.ndarray, groups: np.ndarray, mine: 
     mine, others: (N,) bool."""
     for g in np.unique(groups[others]):
         theirs = others & (groups == g)
-        judge = mine | (others & ~theirs)
-        H = dlt(pts_a[judge], pts_b[judge])
-        if _matrix_problem(H, pts_a[judge]) or np.median(
-                transfer_errors(H, pts_a[theirs], pts_b[theirs])) > limit_px:
-            return False
+        if not _judged_off(pts_a, pts_b, mine | (others & ~theirs), theirs) <= limit_px:
+            return False  # NaN (an unusable DLT) vindicates nothing
     return True
 
 
