@@ -440,7 +440,8 @@ def sweep(
     seeds: Annotated[str, typer.Option(help="Comma-separated generator seeds.")] = "0",
     variants: Annotated[list[str] | None, typer.Option(
         "--variant", help="NAME:KEY=VALUE[,KEY=VALUE...]: thresholds to compare with the "
-        "defaults, e.g. low:background.t_low=0.08 (repeat for more).")] = None,
+        "defaults, e.g. low:background.t_low=0.08 (repeat for more). A variant of resolve.* "
+        "and feet.smooth_* only finishes the defaults' runs again (seconds per clip).")] = None,
     frames: Annotated[int, typer.Option(help="Frames per generated clip.")] = 600,
     size: Annotated[str, typer.Option(help="Main camera size WIDTHxHEIGHT of the generated "
                                       "clips (the size the README's figures use).")] = "320x240",
@@ -456,7 +457,9 @@ def sweep(
     from mvtrack.sweep import (
         SweepPlan,
         Variant,
+        check_plan,
         parse_variant,
+        refinished,
         run_sweep,
         variant_means,
         write_tables,
@@ -470,11 +473,15 @@ def sweep(
             variants=[Variant("defaults", ()), *(parse_variant(v) for v in variants or [])],
             out_dir=out_dir, frames=frames, size=parse_size(size), common=tuple(set_ or []),
             params_file=params, clips_dir=clips, jobs=jobs)
+        check_plan(plan)
+        again = refinished(plan)
     except ValueError as exc:
         raise fail(str(exc)) from None
     missing = plan.missing_clips()
-    err.print(f"{len(plan.scenarios) * len(plan.seeds)} clips x {len(plan.variants)} variants, "
-              f"{jobs} at a time; runs in {out_dir / 'runs'}" + (
+    err.print(f"{len(plan.scenarios) * len(plan.seeds)} clips x {len(plan.variants)} variants"
+              + (f" ({', '.join(sorted(again))}: the defaults' runs finished again)" if again
+                 else "")
+              + f", {jobs} at a time; runs in {out_dir / 'runs'}" + (
                   f"; generating {len(missing)} clips into {missing[0].parent} first"
                   if missing else ""))
 

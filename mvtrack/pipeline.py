@@ -15,7 +15,7 @@ import time
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from contextlib import contextmanager
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 from typing import Any, Protocol
 
@@ -57,6 +57,7 @@ from mvtrack.stages.targets import CameraTargets
 __all__ = [
     "CameraResult", "CameraStep", "FrameResult", "Pipeline", "RunSummary", "Sink",
     "finish_results", "finish_rows", "resolve_rows", "run", "smoothed_feet",
+    "tracking_differences",
 ]
 
 STAGES = ("read", "background", "tracker", "feet", "pairs", "metas")
@@ -346,6 +347,23 @@ def finish_rows(rows: TrackRows, pairs: Sequence[dict[str, Any]], params: Params
         return smooth, None
     res = resolve_rows(rows, pairs, params, spec)
     return replace(smooth, meta=res.meta), res
+
+
+_FINISH_ONLY = ("resolve.", "feet.smooth_seconds", "feet.smooth_break_heights")
+"""Thresholds only :func:`finish_rows` reads (``section.key`` or a section's prefix)."""
+
+
+def tracking_differences(a: Params, b: Params) -> list[str]:
+    """The thresholds (``section.key``) in which ``a`` and ``b`` differ, without those only
+    :func:`finish_rows` reads (the ``resolve`` section, ``feet.smooth_*``). None: a run made
+    with either, finished again with the other (:func:`~mvtrack.batch.refinish_to`), is the
+    run the other makes."""
+    keys = []
+    for section in fields(a):
+        x, y = getattr(a, section.name), getattr(b, section.name)
+        keys += [f"{section.name}.{f.name}" for f in fields(x)
+                 if getattr(x, f.name) != getattr(y, f.name)]
+    return [k for k in keys if not k.startswith(_FINISH_ONLY)]
 
 
 def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params,

@@ -8,9 +8,11 @@ One change to a threshold moves every later stage, and what it does to one clip 
 the figures that matter are spread over scenarios and seeds. A sweep generates each (scenario,
 seed) clip once into a cache folder (reused by later sweeps), then runs `mvtrack track` and
 `mvtrack eval` on every clip for every *variant* (a named list of ``--set`` overrides;
-"defaults" runs first), in worker processes. Each run's results and `metrics.json` stay under
-``out_dir/runs/VARIANT/CLIP``; `mvtrack-view` on the cached clip with the variant's ``--set``
-values shows the run.
+"defaults" runs first), in worker processes. A variant that changes only how a run is
+finished (``resolve.*``, ``feet.smooth_*``) does not track again: it finishes the first
+variant's run anew (:func:`~mvtrack.batch.refinish_to`, the same files in seconds). Each run's
+results and `metrics.json` stay under ``out_dir/runs/VARIANT/CLIP``; `mvtrack-view` on the
+cached clip with the variant's ``--set`` values shows the run.
 
 :func:`summary_row` reduces a `metrics.json` to the figures the issues' targets use (worst
 camera, worst pair); :func:`variant_means` averages them per variant, with the difference
@@ -25,7 +27,7 @@ import math
 import multiprocessing
 import shutil
 from collections.abc import Callable, Iterator, Mapping, Sequence
-from concurrent.futures import Future, ProcessPoolExecutor, as_completed
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +35,7 @@ from typing import Any
 
 __all__ = [
     "COLUMNS", "SweepPlan", "SweepResult", "Variant", "check_plan", "clip_name", "parse_variant",
-    "run_sweep", "summary_row", "variant_means", "write_tables",
+    "refinished", "run_sweep", "summary_row", "variant_means", "write_tables",
 ]
 
 COLUMNS = ("idf1", "idf1_loss_identity", "consistency", "idf1_online", "recall_min",
@@ -127,6 +129,21 @@ def check_plan(plan: SweepPlan) -> None:
             raise ValueError(f"variant {v.name!r}: {exc}") from None
 
 
+def refinished(plan: SweepPlan) -> set[str]:
+    """Names of the variants whose thresholds track as the first variant's do (they differ
+    only in ``resolve.*`` and ``feet.smooth_*``): their runs are the first variant's runs
+    finished again, not tracked."""
+    from mvtrack.params import load_params
+    from mvtrack.pipeline import tracking_differences
+
+    def params(v: Variant) -> Any:
+        return load_params(plan.params_file, [*plan.common, *v.overrides])
+
+    base, *others = plan.variants
+    first = params(base)
+    return {v.name for v in others if not tracking_differences(first, params(v))}
+
+
 def _generate(scenario: str, seed: int, frames: int, size: tuple[int, int], path: Path) -> Path:
     """Generate into a sibling temporary folder, then rename: an interrupted generation never
     leaves a folder that looks like a finished clip."""
@@ -160,6 +177,24 @@ def _track_and_score(clip: Path, run_dir: Path, params_file: Path | None,
                            ResultsWriter(run_dir, mask_every=0))
     if summary.interrupted:  # Ctrl-C reached this worker: no figures for a partial run
         raise KeyboardInterrupt
+    metrics = evaluate(clip, run_dir)
+    write_metrics(run_dir, metrics)
+    return summary_row(metrics)
+
+
+def _refinish_and_score(clip: Path, base_dir: Path, run_dir: Path, params_file: Path | None,
+                        overrides: Sequence[str]) -> dict[str, Any]:
+    """The finished run ``base_dir`` finished again with the variant's thresholds
+    (:func:`~mvtrack.batch.refinish_to`), then `mvtrack eval`; the summary row."""
+    from mvtrack.batch import refinish_to
+    from mvtrack.evaluate.report import evaluate, write_metrics
+    from mvtrack.io import open_clip
+    from mvtrack.params import load_params
+
+    with open_clip(clip) as opened:
+        params = load_params(params_file if params_file is not None else
+                             opened.spec.params_file, list(overrides))
+        refinish_to(base_dir, run_dir, params, opened.spec)
     metrics = evaluate(clip, run_dir)
     write_metrics(run_dir, metrics)
     return summary_row(metrics)
@@ -203,35 +238,61 @@ def run_sweep(plan: SweepPlan,
     return SweepResult([rows[k] for k in order if k in rows], interrupted)
 
 
+_Job = tuple[str, int, Variant | None]  # scenario, seed, variant (None: generating the clip)
+
+
 def _run_cases(plan: SweepPlan, pool: ProcessPoolExecutor, cases: list[tuple[str, int]],
                record: Callable[[tuple[str, int, str], Mapping[str, Any] | None, str | None],
                                 None]) -> None:
-    """Generation jobs for the clips not in the cache, and each clip's runs once it exists."""
+    """Generation jobs for the clips not in the cache, each clip's runs once it exists, and
+    the :func:`refinished` variants' runs once the first variant's run of the clip is done."""
+    again = refinished(plan)
+    base = plan.variants[0]
+    tracked = [v for v in plan.variants if v.name not in again]
+    later = [v for v in plan.variants if v.name in again]
     # Decided once: a clip generated while runs are being submitted must not get them twice.
     missing = set(plan.missing_clips())
-    made = {pool.submit(_generate, s, seed, plan.frames, plan.size, plan.clip_path(s, seed)):
-            (s, seed) for s, seed in cases if plan.clip_path(s, seed) in missing}
-    runs: dict[Future[dict[str, Any]], tuple[str, int, str]] = {}
-
-    def submit(s: str, seed: int) -> None:
-        for v in plan.variants:
-            runs[pool.submit(_track_and_score, plan.clip_path(s, seed), plan.run_dir(v, s, seed),
-                             plan.params_file, [*plan.common, *v.overrides])] = (s, seed, v.name)
-
+    jobs: dict[Future[Any], _Job] = {}
     for s, seed in cases:
-        if plan.clip_path(s, seed) not in missing:
-            submit(s, seed)
-    for generated in as_completed(made):
-        error = _error(generated)
-        if error is None:
-            submit(*made[generated])
-            continue
-        for v in plan.variants:
-            record((*made[generated], v.name), None, f"generating the clip: {_why(error)}")
-    for finished in as_completed(runs):
-        error = _error(finished)
-        record(runs[finished], None if error else finished.result(),
-               None if error is None else _why(error))
+        if plan.clip_path(s, seed) in missing:
+            jobs[pool.submit(_generate, s, seed, plan.frames, plan.size,
+                             plan.clip_path(s, seed))] = (s, seed, None)
+        else:
+            jobs |= _submit_runs(plan, pool, s, seed, tracked)
+    while jobs:
+        done, _ = wait(jobs, return_when=FIRST_COMPLETED)
+        for finished in done:
+            s, seed, v = jobs.pop(finished)
+            error = _error(finished)
+            if v is not None:
+                record((s, seed, v.name), None if error else finished.result(),
+                       None if error is None else _why(error))
+            if error is None and v is None:
+                jobs |= _submit_runs(plan, pool, s, seed, tracked)
+            elif error is None and v is base:
+                jobs |= _submit_runs(plan, pool, s, seed, later, plan.run_dir(base, s, seed))
+            elif v is None or v is base:
+                why = (f"generating the clip: {_why(error)}" if v is None else
+                       f"finished from the {base.name} run, which failed")
+                for w in plan.variants if v is None else later:
+                    record((s, seed, w.name), None, why)
+
+
+def _submit_runs(plan: SweepPlan, pool: ProcessPoolExecutor, s: str, seed: int,
+                 variants: Sequence[Variant], base_dir: Path | None = None
+                 ) -> dict[Future[Any], _Job]:
+    """The variants' runs of one clip: tracked, or ``base_dir`` finished again."""
+    clip = plan.clip_path(s, seed)
+    jobs: dict[Future[Any], _Job] = {}
+    for v in variants:
+        overrides = [*plan.common, *v.overrides]
+        run_dir = plan.run_dir(v, s, seed)
+        job = (pool.submit(_track_and_score, clip, run_dir, plan.params_file, overrides)
+               if base_dir is None else
+               pool.submit(_refinish_and_score, clip, base_dir, run_dir, plan.params_file,
+                           overrides))
+        jobs[job] = (s, seed, v)
+    return jobs
 
 
 def _error(future: Future[Any]) -> BaseException | None:

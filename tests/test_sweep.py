@@ -127,6 +127,61 @@ def test_sweep_runs_track_and_eval_on_generated_clips(tmp_path: Path) -> None:
     assert (clip / "clip.toml").stat().st_mtime_ns == made  # the cached clip was reused
 
 
+def test_a_variant_of_finishing_thresholds_finishes_the_defaults_run_again(tmp_path: Path
+                                                                          ) -> None:
+    """Only resolve.* and feet.smooth_* differ: the variant's run is the defaults' run
+    finished again (not tracked: same timings), and its files are the ones `mvtrack track`
+    writes with those thresholds."""
+    out, clips = tmp_path / "sweep", tmp_path / "clips"
+    sets = ["resolve.labels=online", "feet.smooth_seconds=0"]
+    result = runner.invoke(app, [
+        "sweep", "--out", str(out), "--clips", str(clips), "--scenarios", "pair", "--seeds", "0",
+        "--frames", "120", "--size", "160x120", "--jobs", "2",
+        "--variant", "raw:" + ",".join(sets), "--variant", "hi:background.t_low=0.16"])
+    assert result.exit_code == 0, result.output
+    clip = clips / "pair-seed0-120f-160x120"
+    runs = {v: out / "runs" / v / clip.name for v in ("defaults", "raw", "hi")}
+    info = {v: json.loads((d / "run.json").read_text()) for v, d in runs.items()}
+    assert info["raw"]["thresholds"]["resolve"]["labels"] == "online"
+    assert info["raw"]["seconds"] == info["defaults"]["seconds"]  # not tracked again
+    assert info["hi"]["seconds"] != info["defaults"]["seconds"]
+    assert not (runs["raw"] / "tracks_online.csv").exists()
+
+    alone = tmp_path / "alone"
+    args = ["track", str(clip), "--out", str(alone)]
+    for s in sets:
+        args += ["--set", s]
+    assert runner.invoke(app, args).exit_code == 0
+    for name in ("tracks.csv", "cues.csv", "pairs.json"):
+        assert (runs["raw"] / name).read_bytes() == (alone / name).read_bytes(), name
+    assert (runs["raw"] / "tracks.csv").read_bytes() != (runs["defaults"] / "tracks.csv"
+                                                          ).read_bytes()
+    summary = json.loads((out / "sweep.json").read_text())
+    assert [r["variant"] for r in summary["runs"]] == ["defaults", "raw", "hi"]
+    assert all(r["error"] is None for r in summary["runs"])
+
+
+def test_refinishing_refuses_other_tracking_thresholds(tmp_path: Path) -> None:
+    """refinish_to names the tracking thresholds that differ and writes nothing."""
+    from mvtrack.batch import refinish_to
+    from mvtrack.generate import generate_clip
+    from mvtrack.io import open_clip
+    from mvtrack.params import load_params
+
+    clip = generate_clip(tmp_path / "clip", "pair", seed=0, frames=40, size=(160, 120))
+    run = tmp_path / "run"
+    assert runner.invoke(app, ["track", str(clip), "--out", str(run)]).exit_code == 0
+    with open_clip(clip) as opened:
+        same = tmp_path / "same"
+        refinish_to(run, same, load_params(None), opened.spec)
+        for name in ("tracks.csv", "cues.csv", "tracks_online.csv"):
+            assert (same / name).read_bytes() == (run / name).read_bytes(), name
+        other = load_params(None, ["background.t_low=0.2", "resolve.labels=online"])
+        with pytest.raises(ValueError, match=r"background\.t_low\)"):
+            refinish_to(run, tmp_path / "other", other, opened.spec)
+    assert not (tmp_path / "other").exists()
+
+
 def test_sweep_refuses_a_bad_variant_before_any_work(tmp_path: Path) -> None:
     result = runner.invoke(app, ["sweep", "--out", str(tmp_path / "s"), "--scenarios", "pair",
                                  "--variant", "x:background.nope=1"])
