@@ -31,7 +31,11 @@ from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wai
 from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from mvtrack.io import Clip
+    from mvtrack.params import Params
 
 __all__ = [
     "COLUMNS", "SweepPlan", "SweepResult", "Variant", "check_plan", "clip_name", "parse_variant",
@@ -136,7 +140,7 @@ def refinished(plan: SweepPlan) -> set[str]:
     from mvtrack.params import load_params
     from mvtrack.pipeline import tracking_differences
 
-    def params(v: Variant) -> Any:
+    def params(v: Variant) -> Params:
         return load_params(plan.params_file, [*plan.common, *v.overrides])
 
     base, *others = plan.variants
@@ -163,23 +167,17 @@ def _track_and_score(clip: Path, run_dir: Path, params_file: Path | None,
     import cv2
 
     from mvtrack.batch import track_to
-    from mvtrack.evaluate.report import evaluate, write_metrics
     from mvtrack.io import open_clip
     from mvtrack.io.results import ResultsWriter
-    from mvtrack.params import load_params
 
     cv2.setNumThreads(1)  # the sweep's parallelism is its worker processes
     shutil.rmtree(run_dir, ignore_errors=True)
     with open_clip(clip) as opened:
-        params = load_params(params_file if params_file is not None else
-                             opened.spec.params_file, list(overrides))
-        summary = track_to(opened, params, range(opened.spec.frame_count),
-                           ResultsWriter(run_dir, mask_every=0))
+        summary = track_to(opened, _params(opened, params_file, overrides),
+                           range(opened.spec.frame_count), ResultsWriter(run_dir, mask_every=0))
     if summary.interrupted:  # Ctrl-C reached this worker: no figures for a partial run
         raise KeyboardInterrupt
-    metrics = evaluate(clip, run_dir)
-    write_metrics(run_dir, metrics)
-    return summary_row(metrics)
+    return _score(clip, run_dir)
 
 
 def _refinish_and_score(clip: Path, base_dir: Path, run_dir: Path, params_file: Path | None,
@@ -187,14 +185,25 @@ def _refinish_and_score(clip: Path, base_dir: Path, run_dir: Path, params_file: 
     """The finished run ``base_dir`` finished again with the variant's thresholds
     (:func:`~mvtrack.batch.refinish_to`), then `mvtrack eval`; the summary row."""
     from mvtrack.batch import refinish_to
-    from mvtrack.evaluate.report import evaluate, write_metrics
     from mvtrack.io import open_clip
-    from mvtrack.params import load_params
 
     with open_clip(clip) as opened:
-        params = load_params(params_file if params_file is not None else
-                             opened.spec.params_file, list(overrides))
-        refinish_to(base_dir, run_dir, params, opened.spec)
+        refinish_to(base_dir, run_dir, _params(opened, params_file, overrides), opened.spec)
+    return _score(clip, run_dir)
+
+
+def _params(clip: Clip, params_file: Path | None, overrides: Sequence[str]) -> Params:
+    """The run's thresholds: ``params_file`` (default: the clip's own) with the overrides."""
+    from mvtrack.params import load_params
+
+    return load_params(params_file if params_file is not None else clip.spec.params_file,
+                       list(overrides))
+
+
+def _score(clip: Path, run_dir: Path) -> dict[str, Any]:
+    """`mvtrack eval` of a run (its metrics.json written); the summary row."""
+    from mvtrack.evaluate.report import evaluate, write_metrics
+
     metrics = evaluate(clip, run_dir)
     write_metrics(run_dir, metrics)
     return summary_row(metrics)
