@@ -160,6 +160,31 @@ def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: floa
         assert res[2].merges == ((1, (1, 2)),) and res[3].labels.tolist() == [1, 2]
 
 
+@pytest.mark.parametrize(("part_max_height_frac", "kept"), [(0.6, True), (0.5, False)])
+def test_lower_legs_over_half_the_person_rejoin_it(part_max_height_frac: float,
+                                                    kept: bool) -> None:
+    """A person's lower legs tracked apart (27 rows beside the person's 46, the same feet row)
+    join the person's blob. At 0.6 (the default) they are a part of the person and retire, and
+    when they come apart again they stay the person's; at 0.5 they are a merged target of
+    their own as long as the two touch (generated 'tilted' seed 4 cam0: a pair of jeans
+    tracked beside its person for 128 frames, IDF1 0.892)."""
+    person, apart, touching = (20, 10, 35, 55), (38, 30, 43, 56), (36, 30, 41, 56)
+    frames = [blobs(person, apart), blobs(person, touching), blobs(person, touching),
+              blobs(person, apart)]
+    cfg = replace(CFG, part_max_height_frac=part_max_height_frac)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    assert res[0].labels.tolist() == [1, 2]
+    if kept:
+        assert res[1].reunions == ((1, (2,)),) and res[1].retirements == (2,)
+        assert all(r.labels.tolist() == [1] and not r.births for r in res[1:])
+    else:
+        assert res[1].merges == res[2].merges == ((1, (1, 2)),)
+        assert all(r.labels.tolist() == [1, 2] for r in res[1:])
+
+
 @pytest.mark.parametrize(("part_reach_frac", "person_px", "absorbed"),
                          [(0.25, None, True), (0.25, 60.0, True), (0.25, 30.0, False),
                           (0.0, None, False)])
