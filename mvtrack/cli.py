@@ -441,7 +441,8 @@ def sweep(
     variants: Annotated[list[str] | None, typer.Option(
         "--variant", help="NAME:KEY=VALUE[,KEY=VALUE...]: thresholds to compare with the "
         "defaults, e.g. low:background.t_low=0.08 (repeat for more). A variant of resolve.* "
-        "and feet.smooth_* only finishes the defaults' runs again (seconds per clip).")] = None,
+        "and feet.smooth_* only finishes the defaults' runs again (under a second a clip).")
+    ] = None,
     frames: Annotated[int, typer.Option(help="Frames per generated clip.")] = 600,
     size: Annotated[str, typer.Option(help="Main camera size WIDTHxHEIGHT of the generated "
                                       "clips (the size the README's figures use).")] = "320x240",
