@@ -191,21 +191,26 @@ def test_sweep_refuses_a_bad_variant_before_any_work(tmp_path: Path) -> None:
 
 
 def test_a_failing_run_does_not_stop_the_sweep(tmp_path: Path) -> None:
-    """A broken clip in the cache fails its runs with the reason; the others finish and the
-    tables are written; the command exits with an error."""
+    """A broken clip in the cache fails its runs with the reason (a re-finished variant's
+    too, naming the run it needed); the others finish and the tables are written; the command
+    exits with an error."""
     out, clips = tmp_path / "sweep", tmp_path / "clips"
     broken = clips / "gray-seed0-60f-160x120"
     broken.mkdir(parents=True)
     (broken / "clip.toml").write_text("fps = 25.0\n[[camera]]\nname = 'cam0'\n")
     result = runner.invoke(app, ["sweep", "--out", str(out), "--clips", str(clips),
                                  "--scenarios", "pair,gray", "--frames", "60",
-                                 "--size", "160x120", "--jobs", "1"])
+                                 "--size", "160x120", "--jobs", "1",
+                                 "--variant", "gap:resolve.stitch_max_gap_frames=75"])
     assert result.exit_code == 2
-    assert "1 runs failed" in result.output
+    assert "2 runs failed" in result.output
     runs = json.loads((out / "sweep.json").read_text())["runs"]
-    assert [(r["scenario"], bool(r["error"])) for r in runs] == [("pair", False), ("gray", True)]
-    assert "clip.toml" in runs[1]["error"] and runs[1]["idf1"] is None
-    assert runs[0]["recall_min"] > 0.5
+    assert [(r["scenario"], r["variant"], bool(r["error"])) for r in runs] == [
+        ("pair", "defaults", False), ("pair", "gap", False),
+        ("gray", "defaults", True), ("gray", "gap", True)]
+    assert "clip.toml" in runs[2]["error"] and runs[2]["idf1"] is None
+    assert "finished from the defaults run, which failed" in runs[3]["error"]
+    assert runs[0]["recall_min"] > 0.5 and runs[1]["recall_min"] == runs[0]["recall_min"]
 
 
 def test_sweep_names_a_bad_option(tmp_path: Path) -> None:
