@@ -22,7 +22,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from mvtrack.io import Clip, ClipSpec
-from mvtrack.io.results import ResultsWriter
+from mvtrack.io.results import ResultsWriter, restore_streamed
 from mvtrack.params import Params, params_from_dict
 from mvtrack.pipeline import RunSummary, finish_results, run, tracking_differences
 from mvtrack.run_info import run_info
@@ -59,10 +59,7 @@ def refinish_to(base: Path, out_dir: Path, params: Params, spec: ClipSpec) -> No
                          " only resolve.* and feet.smooth_* can change without tracking again")
     shutil.rmtree(out_dir, ignore_errors=True)
     shutil.copytree(base, out_dir, ignore=shutil.ignore_patterns("metrics.json", "*.part"))
-    for name in ("tracks", "cues"):
-        online = out_dir / f"{name}_online.csv"
-        if online.is_file():
-            online.replace(out_dir / f"{name}.csv")
+    restore_streamed(out_dir)
     info["thresholds"] = dataclasses.asdict(params)
     (out_dir / "run.json").write_text(json.dumps(info, indent=2) + "\n")
     pairs = json.loads((out_dir / "pairs.json").read_text())

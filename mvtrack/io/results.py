@@ -25,7 +25,7 @@ import numpy as np
 
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
-    "TrackRows", "read_cues", "read_pairs", "read_tracks", "rewrite_tracks",
+    "TrackRows", "read_cues", "read_pairs", "read_tracks", "restore_streamed", "rewrite_tracks",
 ]
 
 TRACKS_HEADER = (
@@ -149,13 +149,27 @@ def rewrite_tracks(out_dir: Path, rows: TrackRows,
              [[f, m, c, *flags] for (f, m, c), flags in merged.items()])
 
 
+def restore_streamed(out_dir: Path) -> None:
+    """Undo :func:`rewrite_tracks`: the streamed `*_online.csv` files become `tracks.csv` and
+    `cues.csv` again (nothing to do where they were never rewritten)."""
+    for name in ("tracks.csv", "cues.csv"):
+        streamed = _streamed(Path(out_dir) / name)
+        if streamed.is_file():
+            streamed.replace(Path(out_dir) / name)
+
+
+def _streamed(path: Path) -> Path:
+    """Where :func:`rewrite_tracks` keeps the streamed file ``path``: `*_online.csv`."""
+    return path.with_name(path.stem + "_online" + path.suffix)
+
+
 def _replace(path: Path, header: tuple[str, ...], rows: list[list[Any]]) -> None:
     part = path.with_name(path.name + ".part")
     with part.open("w", newline="", encoding="utf-8") as f:
         w = csv.writer(f, lineterminator="\n")
         w.writerow(header)
         w.writerows(rows)
-    path.replace(path.with_name(path.stem + "_online" + path.suffix))
+    path.replace(_streamed(path))
     part.replace(path)
 
 
