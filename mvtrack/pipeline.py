@@ -218,8 +218,8 @@ class Pipeline:
             self._matchers[a, b], matches[a, b] = match_step(
                 self._matchers[a, b], inputs, self.params.matcher)
         targets = {name: cam.targets for name, cam in results.items()}
-        self._metas, meta = meta_step(self._metas, MetaInputs(targets, _edges(matches), index),
-                                      self.params.meta)
+        linked = MetaInputs(targets, _edges(matches), index, overlaps=tuple(self._pairs))
+        self._metas, meta = meta_step(self._metas, linked, self.params.meta)
         self._members = meta.members
         homographies = {
             pair: pr.homography.H_b_from_a for pair, pr in pairs.items()

@@ -116,6 +116,26 @@ def test_last_feet_kept_for_target_less_metas() -> None:
     assert r.last_feet[1] == {"A": (5.0, 50.0)} and r.members == {}
 
 
+def test_targets_in_cameras_that_do_not_overlap_never_share_a_meta() -> None:
+    # A-C and C-B overlap, A-B do not. A person entering C from A's side gives FOV links in
+    # both pairs (B's link is to whoever stood near C's border in B): one person cannot be in
+    # A and B at once, so only the stronger link joins; the other is a conflict.
+    cams = {"A": cam(1), "B": cam(7), "C": cam(3)}
+    from_a, from_b = edge(("A", 1), ("C", 3), 2), edge(("B", 7), ("C", 3), 1)
+    overlaps = (("A", "C"), ("B", "C"))
+    _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0, overlaps), CFG)
+    assert meta_of(r, "A", 1, cams) == meta_of(r, "C", 3, cams) != meta_of(r, "B", 7, cams)
+    assert r.accepted == (from_a,)
+    assert [(c.rejected, c.camera, c.holder) for c in r.conflicts] == [(from_b, "A", ("A", 1))]
+    # the same links where every pair overlaps (no overlaps given) join all three
+    _, r = step(meta_init(), cams, [from_b, from_a], 0)
+    assert len({meta_of(r, c, lab, cams) for c, lab in (("A", 1), ("B", 7), ("C", 3))}) == 1
+    # and where A and B overlap too
+    _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0,
+                                             (*overlaps, ("B", "A"))), CFG)
+    assert r.conflicts == () and len(r.members) == 1
+
+
 @settings(max_examples=60, deadline=None)
 @given(st.lists(st.tuples(st.integers(0, 2), st.integers(1, 4), st.integers(0, 2),
                           st.integers(1, 4), st.integers(0, 20)), max_size=12),

@@ -2,9 +2,12 @@
 
 The pair links of every declared overlap join targets into meta-targets: the connected
 components of the link graph, so a person walking A → C → B keeps one label although A and B do
-not overlap. A meta-target holds at most one target per camera: links are added strongest first
-(evidence = frames the link was confirmed, then age), and a link that would put two targets of
-one camera into one meta-target is rejected and reported as a :class:`Conflict`.
+not overlap. A meta-target holds at most one target per camera, and no targets in two cameras
+that do not overlap (one person is not seen in both at once: an entrance into C gives FOV
+associations in both A–C and C–B, and only one of them is that person). Links are added
+strongest first (evidence = frames the link was confirmed, then age), and a link that would
+break either rule is rejected and reported as a :class:`Conflict`; the pairs drop markers only
+for the links that were kept.
 
 Labels are stable: each component inherits the previous meta of most of its members (ties: the
 member that has carried it longest; merging components keep the oldest meta); components with
@@ -23,7 +26,7 @@ has a meta. A meta-target ends
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -63,7 +66,8 @@ class Edge:
 
 @dataclass(frozen=True)
 class Conflict:
-    """A link rejected because it would give one meta-target two targets of ``camera``.
+    """A link rejected because it would give one meta-target two targets of ``camera``, or
+    targets in ``camera`` and in a camera that does not overlap it.
 
     rejected: the link;  holder: the target of ``camera`` already in the meta-target (kept)
     """
@@ -98,11 +102,15 @@ class MetaState:
 
 @dataclass(frozen=True)
 class MetaInputs:
-    """One frame: every camera's targets and the links of every pair."""
+    """One frame: every camera's targets and the links of every pair.
+
+    overlaps: the camera pairs that overlap (either order); None: every pair does
+    """
 
     cameras: Mapping[str, CameraTargets]
     edges: Sequence[Edge]
     frame: int
+    overlaps: Collection[tuple[str, str]] | None = None
 
 
 @dataclass(frozen=True, eq=False)
@@ -141,11 +149,15 @@ def meta_init() -> MetaState:
 
 
 class _Components:
-    """Union-find over nodes that keeps, per root, the camera -> node map (one per camera)."""
+    """Union-find over nodes that keeps, per root, the camera -> node map (one per camera).
 
-    def __init__(self, nodes: Sequence[Node]) -> None:
+    ``apart``: camera pairs (both orders) that do not overlap, so never share a component.
+    """
+
+    def __init__(self, nodes: Sequence[Node], apart: Collection[tuple[str, str]] = ()) -> None:
         self.parent = {n: n for n in nodes}
         self.cams: dict[Node, dict[str, Node]] = {n: {n[0]: n} for n in nodes}
+        self.apart = frozenset(apart)
 
     def find(self, n: Node) -> Node:
         while self.parent[n] != n:
@@ -164,6 +176,13 @@ class _Components:
             holder = self.cams[ra][cam] if self.cams[ra][cam] not in (edge.a, edge.b) else (
                 self.cams[rb][cam])
             return Conflict(edge, cam, holder)
+        apart = sorted((x, y) for x in self.cams[ra] for y in self.cams[rb]
+                       if (x, y) in self.apart)
+        if apart:  # the holder: the one of the two that is not an end of the link
+            x, y = apart[0]
+            holder = self.cams[ra][x] if self.cams[ra][x] not in (edge.a, edge.b) else (
+                self.cams[rb][y])
+            return Conflict(edge, holder[0], holder)
         self.parent[rb] = ra
         self.cams[ra].update(self.cams.pop(rb))
         return None
@@ -175,11 +194,22 @@ class _Components:
         return [tuple(sorted(g)) for g in out.values()]
 
 
-def _link(nodes: Sequence[Node], edges: Sequence[Edge]) -> tuple[
+def _apart(cameras: Collection[str],
+           overlaps: Collection[tuple[str, str]] | None) -> set[tuple[str, str]]:
+    """(x, y), both orders, for every two cameras that do not overlap."""
+    if overlaps is None:
+        return set()
+    near = {frozenset(p) for p in overlaps}
+    return {(x, y) for x in cameras for y in cameras
+            if x != y and frozenset((x, y)) not in near}
+
+
+def _link(nodes: Sequence[Node], edges: Sequence[Edge],
+          apart: Collection[tuple[str, str]] = ()) -> tuple[
         list[tuple[Node, ...]], list[Edge], list[Conflict]]:
     """Components of the strongest consistent subset of ``edges`` (greedy, strongest first)."""
     present = set(nodes)
-    comps = _Components(nodes)
+    comps = _Components(nodes, apart)
     accepted, conflicts = [], []
     order = sorted(edges, key=lambda e: (-e.evidence, e.since, e.a, e.b))
     for edge in order:
@@ -291,7 +321,8 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     """Join this frame's targets into meta-targets and name them (module docstring)."""
     frame = inputs.frame
     feet = _feet_of(inputs.cameras)
-    groups, accepted, conflicts = _link(list(feet), inputs.edges)
+    apart = _apart(inputs.cameras, inputs.overlaps)
+    groups, accepted, conflicts = _link(list(feet), inputs.edges, apart)
     ids, next_meta, created, merged, split, resumed = _name(state, groups, frame, feet, cfg)
     of_target = {n: ids[g] for g, members in enumerate(groups) for n in members}
     since = {n: state.since.get(n, frame) if state.of_target.get(n) == m else frame
