@@ -126,7 +126,8 @@ def test_targets_in_cameras_that_do_not_overlap_never_share_a_meta() -> None:
     _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0, overlaps), CFG)
     assert meta_of(r, "A", 1, cams) == meta_of(r, "C", 3, cams) != meta_of(r, "B", 7, cams)
     assert r.accepted == (from_a,)
-    assert [(c.rejected, c.camera, c.holder) for c in r.conflicts] == [(from_b, "A", ("A", 1))]
+    assert [(c.rejected, c.camera, c.holder, c.apart) for c in r.conflicts] == [
+        (from_b, "A", ("A", 1), "B")]
     # the same links where every pair overlaps (no overlaps given) join all three
     _, r = step(meta_init(), cams, [from_b, from_a], 0)
     assert len({meta_of(r, c, lab, cams) for c, lab in (("A", 1), ("B", 7), ("C", 3))}) == 1

@@ -552,3 +552,27 @@ def test_ground_map_chains_homographies_through_a_shared_camera() -> None:
     x0 = np.linalg.solve(h02, x2)  # ... and in cam0
     got = to_ref["cam1"] @ x1
     assert np.allclose(got[:2] / got[2], x0[:2] / x0[2])
+
+
+def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:
+    from types import SimpleNamespace
+
+    from mvtrack.stages.meta import Conflict, Edge
+    from mvtrack.viz.multi import log_meta
+
+    told: list[str] = []
+    sink = SimpleNamespace(conflicts_told=set(), event=lambda msg, level=None: told.append(msg))
+    link = Edge(("cam1", 5), ("cam2", 8), 1.0, 334, "fov")
+    apart = Conflict(link, "cam0", ("cam0", 3), "cam1")
+
+    def meta(*conflicts: Conflict) -> SimpleNamespace:
+        return SimpleNamespace(conflicts=conflicts, created=(), merged=(), split=(), ended=())
+
+    for frame in (meta(apart), meta(apart), meta(), meta(apart)):
+        log_meta(sink, frame)  # type: ignore[arg-type]
+    assert told == ["link cam1 t5 ↔ cam2 t8 (fov) rejected: cam0 t3 keeps the meta-target "
+                    "(cam0 and cam1 do not overlap)"] * 2
+    same_camera = Conflict(Edge(("A", 1), ("B", 8), 3.0, 0), "B", ("B", 7))
+    log_meta(sink, meta(same_camera))  # type: ignore[arg-type]
+    assert told[-1] == ("link A t1 ↔ B t8 rejected: B t7 keeps the meta-target "
+                        "(a meta-target holds one target of B)")

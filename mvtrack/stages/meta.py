@@ -67,14 +67,16 @@ class Edge:
 @dataclass(frozen=True)
 class Conflict:
     """A link rejected because it would give one meta-target two targets of ``camera``, or
-    targets in ``camera`` and in a camera that does not overlap it.
+    targets in ``camera`` and in camera ``apart``, which does not overlap it.
 
     rejected: the link;  holder: the target of ``camera`` already in the meta-target (kept)
+    apart:    "" for two targets of ``camera``, else the camera that does not overlap it
     """
 
     rejected: Edge
     camera: str
     holder: Node
+    apart: str = ""
 
 
 @dataclass(frozen=True)
@@ -180,9 +182,9 @@ class _Components:
                        if (x, y) in self.apart)
         if apart:  # the holder: the one of the two that is not an end of the link
             x, y = apart[0]
-            holder = self.cams[ra][x] if self.cams[ra][x] not in (edge.a, edge.b) else (
-                self.cams[rb][y])
-            return Conflict(edge, holder[0], holder)
+            if self.cams[ra][x] not in (edge.a, edge.b):
+                return Conflict(edge, x, self.cams[ra][x], y)
+            return Conflict(edge, y, self.cams[rb][y], x)
         self.parent[rb] = ra
         self.cams[ra].update(self.cams.pop(rb))
         return None

@@ -20,7 +20,7 @@ from mvtrack.viz.log import ring_strips, strips_key, to_viewer
 if TYPE_CHECKING:
     from mvtrack.viz.sink import RerunSink
 
-__all__ = ["cost_table", "log_cues", "log_matches", "log_meta"]
+__all__ = ["conflict_message", "cost_table", "log_cues", "log_matches", "log_meta"]
 
 _CUE_RADIUS_PX = 10.0  # hollow ring of an expected-but-unseen meta-target, pixels
 
@@ -56,9 +56,15 @@ def log_matches(sink: RerunSink, key: tuple[str, str], m: Any) -> None:
 
 
 def log_meta(sink: RerunSink, meta: Any) -> None:
-    """Meta-targets created, merged, split and ended this frame."""
+    """Meta-targets created, merged, split and ended this frame, and links newly rejected as
+    conflicts (a rejected link is rejected again every frame: each is told once, until it is
+    no longer rejected)."""
     if meta is None:
         return
+    rejected = {(c.rejected.a, c.rejected.b): c for c in meta.conflicts}
+    for key in sorted(rejected.keys() - sink.conflicts_told):
+        sink.event(conflict_message(rejected[key]), rr.TextLogLevel.WARN)
+    sink.conflicts_told = set(rejected)
     if meta.created:
         sink.event("new meta-targets " + ", ".join(f"m{x}" for x in meta.created),
                    rr.TextLogLevel.DEBUG)
@@ -69,6 +75,17 @@ def log_meta(sink: RerunSink, meta: Any) -> None:
     if meta.ended:
         sink.event("meta-targets ended " + ", ".join(f"m{x}" for x in meta.ended),
                    rr.TextLogLevel.DEBUG)
+
+
+def conflict_message(conflict: Any) -> str:
+    """One line for a :class:`~mvtrack.stages.meta.Conflict`: the link, the target that keeps
+    the meta-target, and why the link cannot join it."""
+    (ca, la), (cb, lb) = conflict.rejected.a, conflict.rejected.b
+    source = f" ({conflict.rejected.source})" if conflict.rejected.source else ""
+    why = (f"{conflict.camera} and {conflict.apart} do not overlap" if conflict.apart
+           else f"a meta-target holds one target of {conflict.camera}")
+    return (f"link {ca} t{la} ↔ {cb} t{lb}{source} rejected: {conflict.holder[0]} "
+            f"t{conflict.holder[1]} keeps the meta-target ({why})")
 
 
 def log_cues(sink: RerunSink, cameras: Sequence[str], cues: Sequence[Any]) -> None:

@@ -188,6 +188,7 @@ class RerunSink:
         self._foot_sums: dict[str, tuple[float, int]] = {}
         self.fov_event_cameras: set[str] = set()  # cameras with FOV events drawn this frame
         self._trails: dict[int, list[np.ndarray]] = {}  # meta -> recent ground points
+        self.conflicts_told: set[tuple[Any, Any]] = set()  # rejected links in the event log
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
