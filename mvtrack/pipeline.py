@@ -322,7 +322,7 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
              for p in pairs]
     return resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov",
-                          sizes={c.name: c.size for c in spec.cameras})
+                          sizes={c.name: c.size for c in spec.cameras}, overlaps=spec.overlaps)
 
 
 def smoothed_feet(rows: TrackRows, params: Params, fps: float) -> np.ndarray:

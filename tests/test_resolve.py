@@ -93,6 +93,24 @@ def test_fov_baseline_never_uses_the_homography() -> None:
     assert not res.links
 
 
+def test_targets_of_cameras_that_do_not_overlap_are_never_joined() -> None:
+    """cam0-cam2 and cam1-cam2 overlap, cam0-cam1 do not, and no pair has an H. Online, cam2 t3
+    carried one meta with cam0 t1 for 60 frames and with cam1 t7 for 50 of them: cam0 t1 and
+    cam1 t7 were present together 50 frames, so they are two people and only the stronger
+    link joins (with every pair overlapping, all three would be one person)."""
+    rows = _rows([("cam0", 1, 5, range(0, 60), (100.0, 100.0)),
+                  ("cam2", 3, 5, range(0, 60), (100.0, 100.0)),
+                  ("cam1", 7, 5, range(10, 60), (300.0, 100.0))])
+    pairs = [("cam0", "cam2", None), ("cam1", "cam2", None)]
+    res = resolve_labels(rows, pairs, CFG, overlaps=[(a, b) for a, b, _ in pairs])
+    metas = _meta_of(rows, res.meta)
+    assert metas["cam0", 1] == metas["cam2", 3] != metas["cam1", 7]
+    assert [(x.a[0], x.b[0], x.joined) for x in res.links if x.source == "online"] == [
+        ("cam0", "cam2", True), ("cam1", "cam2", False)]
+    res = resolve_labels(rows, pairs, CFG)  # overlaps unknown: every pair overlaps
+    assert len(set(res.meta.tolist())) == 1
+
+
 def _swap_rows(switch_at: int) -> Rows:
     """cam0 sees persons A and B side by side for 80 frames; cam1's target 7 covers A, then B
     from ``switch_at`` on (an identity swap)."""

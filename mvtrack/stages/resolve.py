@@ -43,7 +43,8 @@ the results give each target one meta for its whole life:
   frames into one meta is refused: those are two people, not two fragments of one; so is one
   joining two targets of a pair with H that were beyond each other's vote gate in more than
   ``max_shared_frames`` frames and voted for each other in few of them
-  (``apart_max_vote_share``);
+  (``apart_max_vote_share``), and one joining two targets present together as long in two
+  cameras that do not overlap (one person is not seen in both at once);
 - each group of targets keeps the online meta most of its rows carried, unless a larger group
   took it; otherwise it gets a new one above every online meta.
 
@@ -55,7 +56,7 @@ the results give each target one meta for its whole life:
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass
 from itertools import combinations, pairwise
 from typing import Any, Protocol
@@ -527,12 +528,15 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
 
 
 class _Groups:
-    """Union-find of targets that refuses to join two people: two targets of one camera
-    present together in more than ``max_shared`` frames, or a pair in ``apart``."""
+    """Union-find of targets that refuses to join two people: two targets of one camera, or
+    of two cameras in ``apart_cameras`` (they do not overlap), present together in more than
+    ``max_shared`` frames, or a pair in ``apart``."""
 
     def __init__(self, rows: Rows, nodes: list[Node], max_shared: int,
-                 apart: set[tuple[Node, Node]]) -> None:
+                 apart: set[tuple[Node, Node]],
+                 apart_cameras: Collection[frozenset[str]] = ()) -> None:
         self.apart = apart
+        self.apart_cameras = frozenset(apart_cameras)
         self.parent = {n: n for n in nodes}
         self.members = {n: [n] for n in self.parent}
         self.frames: dict[Node, set[int]] = {}
@@ -552,7 +556,8 @@ class _Groups:
             return True
         for p in self.members[rx]:
             for q in self.members[ry]:
-                if p[0] == q[0] and len(self.frames[p] & self.frames[q]) > self.max_shared:
+                one_view = p[0] == q[0] or frozenset((p[0], q[0])) in self.apart_cameras
+                if one_view and len(self.frames[p] & self.frames[q]) > self.max_shared:
                     return False
                 if (p, q) in self.apart or (q, p) in self.apart:
                     return False
@@ -584,13 +589,15 @@ def _name_groups(rows: Rows, nodes: list[Node], groups: _Groups) -> np.ndarray:
 
 def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None]],
                    cfg: ResolveConfig, use_h: bool = True,
-                   sizes: Mapping[str, tuple[int, int]] | None = None) -> Resolution:
+                   sizes: Mapping[str, tuple[int, int]] | None = None,
+                   overlaps: Collection[tuple[str, str]] | None = None) -> Resolution:
     """Resolve every target's meta over the whole run (module docstring).
 
     pairs: (camera A, camera B, final H_b_from_a or None) per declared overlap
     use_h: False for the FOV-only baseline: every pair keeps the run's own links
     sizes: camera -> (width, height) of its frame; without them the borders are unknown: no
            target is cut where it turned back at one, and stitches may start at one
+    overlaps: the camera pairs that overlap (either order); None: every pair does
     """
     frames = _frames(rows)
     assigned: dict[tuple[str, str], list[tuple[int, int]]] = {}
@@ -619,7 +626,12 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
-    groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg))
+    near = None if overlaps is None else {frozenset(p) for p in overlaps}
+    apart_cameras = () if near is None else {
+        frozenset(p) for p in combinations(sorted(set(rows.camera.tolist())), 2)
+        if frozenset(p) not in near}
+    groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
+                     apart_cameras)
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
         links.append(ResolvedLink(x, y, v, source, groups.join(x, y)))
