@@ -28,6 +28,7 @@ from __future__ import annotations
 
 from collections.abc import Collection, Mapping, Sequence
 from dataclasses import dataclass, field
+from itertools import combinations
 
 import numpy as np
 
@@ -40,6 +41,7 @@ __all__ = [
     "MetaInputs",
     "MetaResult",
     "MetaState",
+    "cameras_apart",
     "meta_init",
     "meta_step",
 ]
@@ -153,10 +155,10 @@ def meta_init() -> MetaState:
 class _Components:
     """Union-find over nodes that keeps, per root, the camera -> node map (one per camera).
 
-    ``apart``: camera pairs (both orders) that do not overlap, so never share a component.
+    ``apart``: cameras that do not overlap (:func:`cameras_apart`), so never share a component.
     """
 
-    def __init__(self, nodes: Sequence[Node], apart: Collection[tuple[str, str]] = ()) -> None:
+    def __init__(self, nodes: Sequence[Node], apart: Collection[frozenset[str]] = ()) -> None:
         self.parent = {n: n for n in nodes}
         self.cams: dict[Node, dict[str, Node]] = {n: {n[0]: n} for n in nodes}
         self.apart = frozenset(apart)
@@ -179,7 +181,7 @@ class _Components:
                 self.cams[rb][cam])
             return Conflict(edge, cam, holder)
         apart = sorted((x, y) for x in self.cams[ra] for y in self.cams[rb]
-                       if (x, y) in self.apart)
+                       if frozenset((x, y)) in self.apart)
         if apart:  # the holder: the one of the two that is not an end of the link
             x, y = apart[0]
             if self.cams[ra][x] not in (edge.a, edge.b):
@@ -196,18 +198,19 @@ class _Components:
         return [tuple(sorted(g)) for g in out.values()]
 
 
-def _apart(cameras: Collection[str],
-           overlaps: Collection[tuple[str, str]] | None) -> set[tuple[str, str]]:
-    """(x, y), both orders, for every two cameras that do not overlap."""
+def cameras_apart(cameras: Collection[str],
+                  overlaps: Collection[tuple[str, str]] | None) -> frozenset[frozenset[str]]:
+    """Every two of ``cameras`` that do not overlap (none when ``overlaps`` is None: every
+    pair does). One person is never seen in both at once."""
     if overlaps is None:
-        return set()
+        return frozenset()
     near = {frozenset(p) for p in overlaps}
-    return {(x, y) for x in cameras for y in cameras
-            if x != y and frozenset((x, y)) not in near}
+    return frozenset(frozenset(p) for p in combinations(sorted(set(cameras)), 2)
+                     if frozenset(p) not in near)
 
 
 def _link(nodes: Sequence[Node], edges: Sequence[Edge],
-          apart: Collection[tuple[str, str]] = ()) -> tuple[
+          apart: Collection[frozenset[str]] = ()) -> tuple[
         list[tuple[Node, ...]], list[Edge], list[Conflict]]:
     """Components of the strongest consistent subset of ``edges`` (greedy, strongest first)."""
     present = set(nodes)
@@ -323,7 +326,7 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     """Join this frame's targets into meta-targets and name them (module docstring)."""
     frame = inputs.frame
     feet = _feet_of(inputs.cameras)
-    apart = _apart(inputs.cameras, inputs.overlaps)
+    apart = cameras_apart(list(inputs.cameras), inputs.overlaps)
     groups, accepted, conflicts = _link(list(feet), inputs.edges, apart)
     ids, next_meta, created, merged, split, resumed = _name(state, groups, frame, feet, cfg)
     of_target = {n: ids[g] for g, members in enumerate(groups) for n in members}

@@ -65,6 +65,7 @@ import numpy as np
 
 from mvtrack.params import ResolveConfig
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
+from mvtrack.stages.meta import cameras_apart
 from mvtrack.stages.targets import exit_outward
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
@@ -529,8 +530,8 @@ def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[
 
 class _Groups:
     """Union-find of targets that refuses to join two people: two targets of one camera, or
-    of two cameras in ``apart_cameras`` (they do not overlap), present together in more than
-    ``max_shared`` frames, or a pair in ``apart``."""
+    of two cameras in ``apart_cameras`` (:func:`~mvtrack.stages.meta.cameras_apart`), present
+    together in more than ``max_shared`` frames, or a pair in ``apart``."""
 
     def __init__(self, rows: Rows, nodes: list[Node], max_shared: int,
                  apart: set[tuple[Node, Node]],
@@ -626,12 +627,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
-    near = None if overlaps is None else {frozenset(p) for p in overlaps}
-    apart_cameras = () if near is None else {
-        frozenset(p) for p in combinations(sorted(set(rows.camera.tolist())), 2)
-        if frozenset(p) not in near}
     groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
-                     apart_cameras)
+                     cameras_apart(rows.camera.tolist(), overlaps))
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
         links.append(ResolvedLink(x, y, v, source, groups.join(x, y)))
