@@ -243,11 +243,12 @@ def test_crossers_picked_by_a_homography_refine_the_top_line() -> None:
         slot = add_event(slot, k, seen, cfg, event_target=k, crosser_foot=(0.0 - 100.0, y))
     shift = np.array([[1.0, 0.0, 200.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # b -> a: x + 200
     with_h = estimate_line(slot, cfg, 5, shift, (320, 240))
-    assert with_h.line is not None
+    assert with_h.line is not None and with_h.line.source == "crossers"
     a, _b, c = with_h.line.line
     assert abs(abs(a) - 1) < 1e-3 and abs(-c / a - 100.3) < 0.5
     plain = estimate_line(slot, cfg, 5)  # Hough alone: the compact bystander cluster ties
     assert plain.line is not None and abs(plain.line.line[0]) < 0.99
+    assert plain.line.source == "events"
 
 
 @settings(max_examples=30, deadline=None)
@@ -277,8 +278,9 @@ def test_with_h_the_side_lines_are_the_border_through_h() -> None:
     shift = np.array([[1.0, 0.0, 200.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # b -> a: x + 200
     plain = estimate_line(slot, cfg, 5)
     assert plain.line is not None and abs(-plain.line.line[2] / plain.line.line[0] - 206) < 1.5
+    assert plain.line.source == "events"
     with_h = estimate_line(slot, cfg, 5, shift, (320, 240))
-    assert with_h.line is not None
+    assert with_h.line is not None and with_h.line.source == "homography"
     assert np.allclose(with_h.line.line, border_line(shift, "left", (320, 240)))
     assert -with_h.line.line[2] / with_h.line.line[0] == pytest.approx(199.5)
 

@@ -7,6 +7,7 @@ entity must be there with its archetype and one row per frame (or per the layer'
 from __future__ import annotations
 
 import math
+import re
 from collections import defaultdict
 from pathlib import Path
 from typing import Any
@@ -216,7 +217,12 @@ def test_pair_layers(pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> 
         last = max(strips)  # each line is named off its middle, where people cross it
         assert len(names[last]) == len(strips[last]) == len(at[last])
         for name, (p, q), x in zip(names[last], strips[last], at[last], strict=True):
-            assert name.startswith(other) and name.endswith(" edge")
+            # named by what gave the line: the events alone (the Hough peak) until the pair
+            # has a homography, then (but for a top line) the border through it, plain
+            side = re.fullmatch(rf"{other} (left|right|top|bottom) edge"
+                                r"(?P<by>\nfrom \d+ events|\nfrom crossers)?", name)
+            assert side is not None, name
+            assert bool(side["by"]) == (info["H"] is None or side[1] == "top"), name
             low, high = (p, q) if p[1] >= q[1] else (q, p)
             t = np.dot(np.subtract(x, low), np.subtract(high, low)) / np.sum(
                 np.subtract(high, low) ** 2)
@@ -552,6 +558,16 @@ def test_ground_map_chains_homographies_through_a_shared_camera() -> None:
     x0 = np.linalg.solve(h02, x2)  # ... and in cam0
     got = to_ref["cam1"] @ x1
     assert np.allclose(got[:2] / got[2], x0[:2] / x0[2])
+
+
+def test_a_fov_line_is_named_by_what_gave_it() -> None:
+    from mvtrack.stages.fov import FovLine
+    from mvtrack.viz.pairs import _line_name
+
+    names = [_line_name(FovLine("cam1", "cam2", "left", (1.0, 0.0, -3.0), 4, 334, source))
+             for source in ("events", "homography", "crossers", "prior")]
+    assert names == ["cam2 left edge\nfrom 4 events", "cam2 left edge",
+                     "cam2 left edge\nfrom crossers", "cam2 left edge\nloaded"]
 
 
 def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:

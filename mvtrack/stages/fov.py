@@ -87,7 +87,14 @@ class HoughResult:
 
 @dataclass(frozen=True)
 class FovLine:
-    """The FOV line of side ``side`` of ``edge_of``, in ``seen_in``'s pixels (a² + b² = 1)."""
+    """The FOV line of side ``side`` of ``edge_of``, in ``seen_in``'s pixels (a² + b² = 1).
+
+    source: what gave it (:func:`estimate_line`): "events" (the Hough peak of the events'
+            points alone, as every line before the pair has a homography; on generated scenes
+            most such lines are tens of px off, or stand for a border ``seen_in`` does not see),
+            "homography" (the border mapped through H), "crossers" (a top line fitted to the
+            crossers H picks out) or "prior" (loaded from an earlier run)
+    """
 
     seen_in: str
     edge_of: str
@@ -95,6 +102,7 @@ class FovLine:
     line: tuple[float, float, float]
     events: int
     from_frame: int
+    source: str = "events"
 
 
 @dataclass(frozen=True)
@@ -480,9 +488,9 @@ def estimate_line(
     hough = hough_line(slot.accumulator, points, owner, slot.size, cfg)
     if hough is None:
         return slot
-    best = hough.line
+    best, source = hough.line, "events"
     if H_seen_from_edge is not None and slot.side != "top" and edge_size is not None:
-        best = np.array(border_line(H_seen_from_edge, slot.side, edge_size))
+        best, source = np.array(border_line(H_seen_from_edge, slot.side, edge_size)), "homography"
     elif H_seen_from_edge is not None:
         crossers = _crosser_points(slot, H_seen_from_edge, cfg)
         span = float(np.ptp(crossers, axis=0).max()) if len(crossers) else 0.0
@@ -490,9 +498,10 @@ def estimate_line(
         if len(crossers) >= max(cfg.min_fov_events, 2) or (
             len(crossers) >= 2 and span >= 2 * heights
         ):
-            best = _tls_line(crossers, np.ones(len(crossers)), hough.line)
+            best, source = _tls_line(crossers, np.ones(len(crossers)), hough.line), "crossers"
     a, b, c = (float(v) for v in best)
-    line = FovLine(slot.seen_in, slot.edge_of, slot.side, (a, b, c), slot.n_events, frame)
+    line = FovLine(slot.seen_in, slot.edge_of, slot.side, (a, b, c), slot.n_events, frame,
+                   source)
     return replace(slot, line=line, hough=hough)
 
 

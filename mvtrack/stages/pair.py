@@ -241,7 +241,7 @@ def pair_init(names: tuple[str, str], sizes: tuple[tuple[int, int], tuple[int, i
         for seen_in, side, line, events in prior.lines:
             i = names.index(seen_in)
             slots[i, side] = replace(slots[i, side], line=fov.FovLine(
-                seen_in, names[1 - i], side, line, events, -1))
+                seen_in, names[1 - i], side, line, events, -1, "prior"))
         if prior.H_b_from_a is not None:
             homography = HomographyEstimate(prior.H_b_from_a, _PRIOR, prior.markers,
                                             np.zeros(0, bool), np.zeros(0), float("nan"))

@@ -109,7 +109,7 @@ def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResu
         seg = line_strip_in_frame(slot.line.line, size)
         if seg is not None:
             strips[slot.seen_in].append(to_viewer(seg))
-            labels[slot.seen_in].append(f"{slot.edge_of} {slot.side} edge")
+            labels[slot.seen_in].append(_line_name(slot.line))
     for cam in (a, b):
         other = b if cam == a else a
         shown = strips_key(strips[cam], labels[cam])  # the names follow from the lines
@@ -123,6 +123,15 @@ def _log_lines(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResu
         for idx, side in pr.reestimated:
             sink.event(f"pair {paths.pair_name(a, b)}: FOV line of {key[1 - idx]} {side} "
                        f"re-estimated in {key[idx]}", rr.TextLogLevel.DEBUG)
+
+
+def _line_name(line: Any) -> str:
+    """A FOV line's name, and what gave it unless the homography did: a line from the events
+    alone can be far off, or stand for a border the camera does not see
+    (:class:`~mvtrack.stages.fov.FovLine`)."""
+    name = f"{line.edge_of} {line.side} edge"
+    return name + {"events": f"\nfrom {line.events} events", "crossers": "\nfrom crossers",
+                   "prior": "\nloaded"}.get(line.source, "")
 
 
 def _line_names(strips: list[np.ndarray], labels: list[str]) -> rr.Points2D:
