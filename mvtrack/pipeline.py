@@ -42,7 +42,15 @@ from mvtrack.stages.cues import Cue, CueInputs, camera_cues
 from mvtrack.stages.feet import Feet, smooth_feet, target_feet_records
 from mvtrack.stages.homography import HomographyEstimate
 from mvtrack.stages.matcher import MatchInputs, MatchResult, match_init, match_step
-from mvtrack.stages.meta import Edge, MetaInputs, MetaResult, MetaState, meta_init, meta_step
+from mvtrack.stages.meta import (
+    Edge,
+    MetaInputs,
+    MetaResult,
+    MetaState,
+    cameras_apart,
+    meta_init,
+    meta_step,
+)
 from mvtrack.stages.pair import (
     PairConfigs,
     PairPrior,
@@ -182,6 +190,7 @@ class Pipeline:
             for a, b in overlaps if a in size and b in size
         }
         self._matchers = {pair: match_init(pair) for pair in self._pairs}
+        self._apart = cameras_apart(list(size), list(self._pairs))
         self._metas: MetaState = meta_init()
         self._members: Mapping[int, tuple[tuple[str, int], ...]] = {}
         self._pool: ThreadPoolExecutor | None = None  # front ends of cameras 2.. (step)
@@ -218,7 +227,7 @@ class Pipeline:
             self._matchers[a, b], matches[a, b] = match_step(
                 self._matchers[a, b], inputs, self.params.matcher)
         targets = {name: cam.targets for name, cam in results.items()}
-        linked = MetaInputs(targets, _edges(matches), index, overlaps=tuple(self._pairs))
+        linked = MetaInputs(targets, _edges(matches), index, apart=self._apart)
         self._metas, meta = meta_step(self._metas, linked, self.params.meta)
         self._members = meta.members
         homographies = {

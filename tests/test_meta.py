@@ -10,7 +10,14 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from mvtrack.params import MetaConfig
-from mvtrack.stages.meta import Edge, MetaInputs, MetaState, meta_init, meta_step
+from mvtrack.stages.meta import (
+    Edge,
+    MetaInputs,
+    MetaState,
+    cameras_apart,
+    meta_init,
+    meta_step,
+)
 from mvtrack.stages.targets import CameraTargets
 
 CFG = MetaConfig()
@@ -123,7 +130,8 @@ def test_targets_in_cameras_that_do_not_overlap_never_share_a_meta() -> None:
     cams = {"A": cam(1), "B": cam(7), "C": cam(3)}
     from_a, from_b = edge(("A", 1), ("C", 3), 2), edge(("B", 7), ("C", 3), 1)
     overlaps = (("A", "C"), ("B", "C"))
-    _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0, overlaps), CFG)
+    apart = cameras_apart(cams, overlaps)
+    _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0, apart), CFG)
     assert meta_of(r, "A", 1, cams) == meta_of(r, "C", 3, cams) != meta_of(r, "B", 7, cams)
     assert r.accepted == (from_a,)
     assert [(c.rejected, c.camera, c.holder, c.apart) for c in r.conflicts] == [
@@ -133,7 +141,7 @@ def test_targets_in_cameras_that_do_not_overlap_never_share_a_meta() -> None:
     assert len({meta_of(r, c, lab, cams) for c, lab in (("A", 1), ("B", 7), ("C", 3))}) == 1
     # and where A and B overlap too
     _, r = meta_step(meta_init(), MetaInputs(cams, [from_b, from_a], 0,
-                                             (*overlaps, ("B", "A"))), CFG)
+                                             cameras_apart(cams, (*overlaps, ("B", "A")))), CFG)
     assert r.conflicts == () and len(r.members) == 1
 
 

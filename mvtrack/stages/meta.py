@@ -108,13 +108,13 @@ class MetaState:
 class MetaInputs:
     """One frame: every camera's targets and the links of every pair.
 
-    overlaps: the camera pairs that overlap (either order); None: every pair does
+    apart:    the cameras that do not overlap (:func:`cameras_apart`); empty: every pair does
     """
 
     cameras: Mapping[str, CameraTargets]
     edges: Sequence[Edge]
     frame: int
-    overlaps: Collection[tuple[str, str]] | None = None
+    apart: Collection[frozenset[str]] = frozenset()
 
 
 @dataclass(frozen=True, eq=False)
@@ -326,8 +326,7 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     """Join this frame's targets into meta-targets and name them (module docstring)."""
     frame = inputs.frame
     feet = _feet_of(inputs.cameras)
-    apart = cameras_apart(list(inputs.cameras), inputs.overlaps)
-    groups, accepted, conflicts = _link(list(feet), inputs.edges, apart)
+    groups, accepted, conflicts = _link(list(feet), inputs.edges, inputs.apart)
     ids, next_meta, created, merged, split, resumed = _name(state, groups, frame, feet, cfg)
     of_target = {n: ids[g] for g, members in enumerate(groups) for n in members}
     since = {n: state.since.get(n, frame) if state.of_target.get(n) == m else frame
