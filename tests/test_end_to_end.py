@@ -126,14 +126,20 @@ def test_a_clip_with_few_passers_by_still_learns_its_homography(tmp_path: Any) -
     assert sorted(m["labels"]["consistency"] for m in runs)[1] >= 0.95, [m["labels"] for m in runs]
 
 
-def test_after_a_wrong_homography_four_people_give_the_right_one_at_once(tmp_path: Any) -> None:
-    """'pair' generated with --seed 2: FOV links give a wrong H at frame 365, which
-    verification drops at 532. The co-motion pool then holds the true pairing of four people,
-    each with 8-29 inlier candidates: accepted at once, it ends at 6.2 / 16.9 px (IDF1 0.859,
-    consistency 0.894); held for a confirmation that the clip ends before, it left the pair
-    without an H (IDF1 0.705, consistency 0.421)."""
+def test_a_person_whose_legs_match_the_ground_does_not_delay_the_homography(
+    tmp_path: Any,
+) -> None:
+    """'pair' generated with --seed 2: person 5's trousers match the ground, so their blob
+    often ends at the knees, 0.4 of their height short, with the feet far off. Pooled for the
+    co-motion bootstrap, 8 of that pair's 14 candidates missed even the true H, so only two
+    pairs supported it until a fourth person came: the first H at frame 350, IDF1 online 0.713
+    (consistency 0.344). Left out while shorter than their recent median, the first H comes at
+    frame 175: online 0.802 (0.518). Measured at the end: transfer error 6.3 / 11.8 px (issue 4
+    asks 3 / 8: the same person's feet, SPEC §3), IDF1 0.961, consistency 1.0. (Earlier, FOV
+    links gave a wrong H that verification dropped; the pool then held four true pairs.)"""
     m = _track_generated(tmp_path, "pair", 2)
     (pair,) = m["pairs"]
-    assert pair["transfer_error_px"]["median"] is not None, pair
+    assert pair["first_valid_H"] is not None and pair["first_valid_H"]["frame"] < 300, pair
     assert pair["transfer_error_px"]["median"] <= 10.0, pair["transfer_error_px"]
-    assert m["labels"]["idf1_global"] >= 0.83 and m["labels"]["consistency"] >= 0.85, m["labels"]
+    assert m["labels"]["idf1_global"] >= 0.95 and m["labels"]["consistency"] >= 0.98, m["labels"]
+    assert m["labels_online"]["idf1_global"] >= 0.77, m["labels_online"]

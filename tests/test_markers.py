@@ -23,6 +23,7 @@ from mvtrack.stages.markers import (
     marker_step,
     markers_add,
     markers_init,
+    not_shrunk,
 )
 from mvtrack.stages.targets import CameraTargets
 
@@ -149,6 +150,24 @@ def _pool(n_people: int, frames: int = 100) -> Candidates:
         a, b = _walk(np.arange(n_people) + 1, np.arange(n_people) + 101, feet)
         pool = candidates_add(pool, a, b, cfg, f)
     return pool
+
+
+def test_a_target_much_shorter_than_its_recent_heights_is_told() -> None:
+    """The co-motion pool leaves such targets out: a blob that lost its legs has its feet
+    too high, so its candidates would fit no H."""
+    cfg = MarkerConfig(height_window_frames=5)
+    state = markers_init(SIZE)
+    for f in range(4):
+        state, _ = marker_step(state, [], _one(1, (100, 120)), _one(2, (100, 150)), cfg, f)
+    two = CameraTargets(np.array([1, 7], np.int64), np.array([[100.0, 120], [200, 120]]),
+                        np.array([30.0, 60.0]), np.array([[92.0, 90, 16, 30], [192, 60, 16, 60]]),
+                        SIZE)
+    # 1 is 25 % below its median 40; 7 is new (its only height is its median)
+    assert not_shrunk(state.heights_a, two, cfg).tolist() == [False, True]
+    assert not_shrunk(state.heights_a, _one(1, (100, 120), 35.0), cfg).tolist() == [True]
+    assert not_shrunk(state.heights_a, _one(1, (100, 120), 60.0), cfg).tolist() == [True]
+    assert not_shrunk(state.heights_b, _one(2, (100, 150), 33.0), cfg).tolist() == [False]
+    assert two.subset(not_shrunk(state.heights_a, two, cfg)).labels.tolist() == [7]
 
 
 def _fit(pa, pb):

@@ -44,6 +44,7 @@ __all__ = [
     "marker_step",
     "markers_add",
     "markers_init",
+    "not_shrunk",
 ]
 
 
@@ -130,6 +131,17 @@ def _update_heights(
 def _height_ok(history: tuple[float, ...], cfg: MarkerConfig) -> bool:
     median = float(np.median(history))
     return abs(history[-1] - median) <= cfg.height_tolerance * median
+
+
+def not_shrunk(
+    history: dict[int, tuple[float, ...]], targets: CameraTargets, cfg: MarkerConfig
+) -> np.ndarray:
+    """(N,) bool per target: its height this frame is not below the median of its window
+    (``history``, :class:`MarkerState`'s heights before this frame, and this one) by more than
+    ``height_tolerance``, the lower half of test (b)."""
+    now = _update_heights(history, targets, cfg.height_window_frames)
+    return np.array([now[label][-1] >= (1 - cfg.height_tolerance) * float(np.median(now[label]))
+                     for label in targets.labels.tolist()], bool)
 
 
 def _cell(x_a: tuple[float, float], size_a: tuple[int, int], cfg: MarkerConfig) -> int:

@@ -47,6 +47,7 @@ from mvtrack.stages.markers import (
     marker_step,
     markers_add,
     markers_init,
+    not_shrunk,
 )
 from mvtrack.stages.matcher import transfer_costs
 from mvtrack.stages.targets import SIDES, CameraTargets
@@ -450,7 +451,8 @@ def _bootstrap(
            list[tuple[int, int, FovEvent]]]:
     """Co-motion bootstrap while no homography is valid (see :class:`MarkerConfig`).
 
-    Pools candidate pairs; every ``comotion_every_frames`` frames each held hypothesis is
+    Pools candidate pairs (leaving out targets much shorter than their recent heights,
+    ``comotion_height_test``); every ``comotion_every_frames`` frames each held hypothesis is
     checked on the candidates pooled since it was found (never used to find it,
     :func:`comotion_confirm`), rejected ones are dropped, and a new search of the whole pool
     adds a hypothesis that pairs the targets differently from every held one (at most
@@ -468,7 +470,11 @@ def _bootstrap(
     mcfg = cfg.markers
     if mcfg.comotion_min_pairs == 0:
         return Candidates.empty(), (), links, state.markers, []
-    pool = candidates_add(state.candidates, cams[0], cams[1], mcfg, frame, state.refuted)
+    a, b = cams
+    if mcfg.comotion_height_test:  # a blob that lost its legs has its feet off: it fits no H
+        a = a.subset(not_shrunk(state.markers.heights_a, a, mcfg))
+        b = b.subset(not_shrunk(state.markers.heights_b, b, mcfg))
+    pool = candidates_add(state.candidates, a, b, mcfg, frame, state.refuted)
     if state.homography:
         return pool, (), links, state.markers, []
     if frame % mcfg.comotion_every_frames or len(pool) < 4:

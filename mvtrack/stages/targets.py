@@ -62,6 +62,11 @@ class CameraTargets:
         """(N, 4) bool: which image sides (:data:`SIDES` order) each target touches."""
         return touching_sides(self.boxes_xywh, self.size, margin_px)
 
+    def subset(self, keep: np.ndarray) -> CameraTargets:
+        """The targets of the rows where ``keep`` (N,) bool is True."""
+        return CameraTargets(self.labels[keep], self.feet[keep], self.heights_px[keep],
+                             self.boxes_xywh[keep], self.size)
+
     def index_of(self, label: int) -> int | None:
         """Row of ``label`` in this frame, or None if the target is absent."""
         hits = np.flatnonzero(self.labels == label)
