@@ -454,6 +454,32 @@ def test_shadow_attached_to_mvo_is_foreground_shadow() -> None:
     assert np.array_equal(r.fg_shadow | r.ghost_shadow, r.shadow)
 
 
+@pytest.mark.parametrize("gap_px", [0, 4])
+def test_a_broken_shadow_near_an_mvo_is_foreground_shadow(gap_px: int) -> None:
+    """A far person's cast shadow passes the shadow test only in specks (the ground's texture
+    and the video's noise break it up): 2x2 specks 2 px apart, the first 2 px from the feet.
+    Unconnected, they were ghost shadows and went into the background, which then held a dark
+    trail of the person's path. Within fg_shadow_gap_px of the MVO they are its shadow."""
+    rng = np.random.default_rng(4)
+    ground, person = _ground(rng), _person(rng)
+    cfg = dataclasses.replace(CFG, fg_shadow_gap_px=gap_px)
+    state = _train(ground, rng, cfg=cfg)
+    for t in range(6):
+        x = 20 + 4 * t
+        frame = _paste(ground, person, x, 30).astype(np.float64)
+        specks = np.zeros((H, W), bool)
+        for sx in range(x + 16, x + 40, 4):  # right of the feet (the person is 14 px wide)
+            specks[56:58, sx : sx + 2] = True
+        frame[specks] *= 0.6
+        frame[90:110, 110:140] *= 0.6  # a shadow nobody casts, 30 px from the person
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+    assert r.blobs.is_mvo.sum() == 1
+    assert r.shadow[specks].mean() > 0.9
+    found = r.fg_shadow[specks & r.shadow]
+    assert found.all() if gap_px else not found.any()
+    assert r.fg_shadow[90:110, 110:140].sum() == 0
+
+
 def test_result_masks_are_consistent() -> None:
     r = _run_moving("rgb")[-1]
     assert r.distance.dtype == np.float32 and 0 <= r.distance.min() <= r.distance.max() <= 1

@@ -12,7 +12,8 @@ Per frame, against the current background B:
 3. D_B = max(circular |ΔH|/π, |ΔS|, |ΔV|); candidates D_B > T_L, opened, shadows removed;
    8-connected components are the blobs.
 4. A blob is an MVO when area > T_area, max D_B > T_H and mean optical flow > T_AOF; the other
-   blobs are ghosts. Shadow pixels 8-connected to an MVO (through shadow) are foreground shadows.
+   blobs are ghosts. Shadow pixels 8-connected to an MVO (through shadow) are foreground shadows
+   (across small gaps: below).
 5. Selective update: the frame with MVO and foreground-shadow pixels replaced by B is pushed into
    the FIFO; the new B is the median of n FIFO frames spaced m apart (the newest and every m-th
    older one). Ghosts are not masked, so the median absorbs them.
@@ -46,6 +47,10 @@ Choices beyond the thesis (each with its config field):
   shadow and D_B > T_L pixels growing down from the torso within a corridor below it are given
   back to the MVO (:func:`_regrow_legs`, ``regrow_legs``); the shadow map and the foreground
   shadows are then taken without them.
+- **Broken shadows stay foreground.** A far person's cast shadow passes the shadow test in
+  specks (texture, noise, the legs between): unconnected to the MVO, they were ghost shadows,
+  went into the FIFO, and a slow walker left a dark trail of its shadow in B. A shadow pixel
+  reaches an MVO across gaps of up to ``fg_shadow_gap_px`` (:func:`_split_shadows`).
 - **FIFO length.** The newest frame and every m-th older one are the n samples, so the FIFO
   keeps (n − 1)·m + 1 frames (the thesis sizes it n·m; the extra frames are never selected).
 - **Median.** Exact lower median (:mod:`mvtrack.stages.median`): 2.5 ms for n = 8 at 768×576×3.
@@ -665,14 +670,18 @@ def _blob_table(
     return table, age
 
 
-def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray) -> np.ndarray:
-    """Foreground shadows: shadow pixels in an 8-connected component of (shadow | MVO) that
+def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray,
+                   gap_px: int) -> np.ndarray:
+    """Foreground shadows: shadow pixels in an 8-connected component of (shadow | MVO), its
+    parts joined across gaps of up to ``gap_px`` px (dilated by a (gap_px + 1)² square), that
     holds an MVO pixel. shadow, mvo: (H,W) bool; mvo_index: flat indices of the MVO pixels."""
     fg_shadow = np.zeros_like(shadow)
     shadow_index = np.flatnonzero(shadow)
     if len(mvo_index) == 0 or len(shadow_index) == 0:
         return fg_shadow
     union = (shadow | mvo).view(np.uint8)
+    if gap_px:
+        union = cv2.dilate(union, np.ones((gap_px + 1, gap_px + 1), np.uint8))
     n, comp = cv2.connectedComponentsWithAlgorithm(union, 8, cv2.CV_32S, cv2.CCL_GRANA)
     touching = np.zeros(n, bool)
     flat = comp.ravel()
@@ -1093,7 +1102,7 @@ def background_step(
         mvo = mvo_labels > 0
         shadow = shadow & ~mvo
         mvo_index = np.flatnonzero(mvo)
-    fg_shadow = _split_shadows(shadow, mvo, mvo_index)
+    fg_shadow = _split_shadows(shadow, mvo, mvo_index, cfg.fg_shadow_gap_px)
     fifo, model, shared = _update(state, frame, mvo | fg_shadow, cfg)
     result = BackgroundResult(
         frame_index=state.frame_index,
