@@ -471,7 +471,8 @@ def _bootstrap(
     if mcfg.comotion_min_pairs == 0:
         return Candidates.empty(), (), links, state.markers, []
     a, b = cams
-    if mcfg.comotion_height_test:  # a blob that lost its legs has its feet off: it fits no H
+    # a blob that lost its legs has its feet off: it fits no H (only marker frames pool)
+    if mcfg.comotion_height_test and frame % mcfg.marker_every_frames == 0:
         a = a.subset(not_shrunk(state.markers.heights_a, a, mcfg))
         b = b.subset(not_shrunk(state.markers.heights_b, b, mcfg))
     pool = candidates_add(state.candidates, a, b, mcfg, frame, state.refuted)
