@@ -213,6 +213,32 @@ def test_a_trailing_leg_beside_its_person_rejoins_it(
         assert res[1].merges == ((1, (1, 2)),) and res[1].labels.tolist() == [1, 2]
 
 
+@pytest.mark.parametrize("part_merge_frames", [10, 0])
+def test_a_target_left_with_a_leg_of_a_person_is_absorbed(part_merge_frames: int) -> None:
+    """A patch beside a standing person's feet (a cast shadow taken for foreground) is tracked
+    alone, reaching far below the feet: no leg of the person. It then joins the person, and the
+    division keeps giving it a leg-sized share at the person's feet. After part_merge_frames
+    such frames in a row it is absorbed by the person and retires; with 0 it stays a second
+    target on one person (generated 'three' seed 4 cam1: 87 frames)."""
+    person = (20, 10, 35, 60)
+    frames = [blobs(person, (38, 52, 56, 84)), blobs(person, (34, 52, 50, 70))]
+    frames += [blobs(person, (36, 45, 40, 60)) for _ in range(14)]
+    cfg = replace(CFG, part_merge_frames=part_merge_frames)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    assert res[0].labels.tolist() == [1, 2]
+    assert all(r.merges == ((1, (1, 2)),) for r in res[1:11])
+    shares = np.array([r.boxes_xywh[1] for r in res[2:11]])
+    assert (shares[:, 3] < 0.6 * 51).all() and (shares[:, 1] + shares[:, 3] == 60.5).all()
+    if part_merge_frames:
+        assert res[11].reunions == ((1, (2,)),) and res[11].retirements == (2,)
+        assert all(r.labels.tolist() == [1] and not r.births for r in res[11:])
+    else:
+        assert all(r.labels.tolist() == [1, 2] and not r.reunions for r in res[11:])
+
+
 def test_split_off_fragment_stays_with_its_parent() -> None:
     frames = [
         blobs((20, 10, 33, 70)),

@@ -26,6 +26,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    other, and stay a merge (``fragment_max_height_frac``; needs ``size_model``). A part cut
    from a target by a group cut (rule 0) that shares one merged blob with it, the blob showing
    one head, for ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false.
+   So does a merged target whose share of the blob has been a leg part of the blob for
+   ``part_merge_frames`` frames in a row (born on a leg or a shadow patch, so its template is
+   no leg of its person's and the merge did not reunite it).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
@@ -107,6 +110,8 @@ class TargetTrack:
     cut_from:              int, the label of the target whose blob a group cut gave it its
                            part (0: none)
     rejoined:              int, frames in a row it has shared one merged blob with cut_from
+    as_part:               int, frames in a row its share of a merged blob was a leg part of
+                           the blob (:func:`_merged_parts`)
     """
 
     label: int
@@ -119,6 +124,7 @@ class TargetTrack:
     external_id: int = -1
     cut_from: int = 0
     rejoined: int = 0
+    as_part: int = 0
 
     def velocity_xy(self) -> np.ndarray:
         """(2,) float64 px/frame: mean displacement over the remembered centroids."""
@@ -556,7 +562,8 @@ def _reunite(
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
     legs = _legs_of(boxes, ctx)
-    linked = _stacked(boxes, ctx) | legs | legs.T | _rejoined(heirs, targets, work, ctx.cfg)
+    linked = (_stacked(boxes, ctx) | legs | legs.T | _rejoined(heirs, targets, work, ctx.cfg)
+              | _long_parts(heirs, targets, ctx.cfg))
     n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
         return heirs
@@ -620,6 +627,44 @@ def _rejoined(
     due = np.array([targets[r].rejoined + 1 >= cfg.group_rejoin_frames
                     and targets[r].label not in work.two_heads for r in heirs])
     return (cut_from[:, None] == labels[None, :]) & due[:, None]
+
+
+def _long_parts(
+    heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], cfg: TrackerConfig
+) -> np.ndarray:
+    """(K, K) bool, [i, j]: heir i's share of the merged blob it has been in has been a leg
+    part of that blob for ``part_merge_frames`` frames in a row, and heir j is the other heir
+    its last box shares most area with."""
+    k = len(heirs)
+    linked = np.zeros((k, k), bool)
+    if cfg.part_merge_frames <= 0:
+        return linked
+    boxes = np.stack([targets[r].box_xywh for r in heirs])
+    shared = box_intersections(boxes)
+    np.fill_diagonal(shared, -1.0)
+    for i, r in enumerate(heirs):
+        if targets[r].as_part >= cfg.part_merge_frames:
+            linked[i, int(np.argmax(shared[i]))] = True
+    return linked
+
+
+def _merged_parts(labels: np.ndarray, boxes: list[np.ndarray], work: _Frame, ctx: _Inputs
+                  ) -> set[int]:
+    """The merged targets among ``labels`` whose box this frame (``boxes``, their share of the
+    blob) is a leg part (:func:`_legs_of`) of the box of all the blob's shares."""
+    blob_boxes: dict[int, list[np.ndarray]] = {}
+    for lab, box in zip(labels.tolist(), boxes, strict=True):
+        if lab in work.merged:
+            blob_boxes.setdefault(work.blob_of[lab], []).append(box)
+    parts = set()
+    for lab, box in zip(labels.tolist(), boxes, strict=True):
+        if lab not in work.merged:
+            continue
+        shares = np.stack(blob_boxes[work.blob_of[lab]])
+        lo, hi = shares[:, :2].min(axis=0), (shares[:, :2] + shares[:, 2:]).max(axis=0)
+        if _legs_of(np.stack([box, np.r_[lo, hi - lo]]), ctx)[0, 1]:
+            parts.add(lab)
+    return parts
 
 
 def _blob_box(window: tuple[slice, slice]) -> np.ndarray:
@@ -998,6 +1043,10 @@ def _finish_masks(
                 merged=True,
             )
         tracks.append(_count_rejoined(fresh, work))
+    if ctx.cfg.part_merge_frames > 0:
+        parts = _merged_parts(labels, boxes, work, ctx)
+        tracks = [replace(t, as_part=t.as_part + 1 if t.label in parts else 0)
+                  if t.as_part or t.label in parts else t for t in tracks]
     births, splits = _events(work.plan, rows, work.new_labels, work.extra_labels)
     present = set(labels.tolist())
     result = TrackResult(
