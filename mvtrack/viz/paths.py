@@ -75,7 +75,8 @@ away and zoom the map out)::
 Events and metrics::
 
     /events                         TextLog: FOV events, associations, homography estimates,
-                                    tracker births/splits/merges/retirements, warnings
+                                    tracker births/splits/merges/retirements, fragments
+                                    absorbed and group cuts, warnings
     /metrics/targets/{cam}          Scalars: targets in ``cam``
     /metrics/stage_ms/{stage}       Scalars: milliseconds per stage (all cameras)
     /metrics/log_ms                 Scalars: milliseconds spent logging the frame

@@ -377,6 +377,12 @@ class RerunSink:
             self.event(f"{name}: t{parent} split into {', '.join(f't{k}' for k in kids)}", debug)
         for _, labels in t.merges:
             self.event(f"{name}: merged {' + '.join(f't{k}' for k in labels)}", debug)
+        for kept, absorbed in t.reunions:
+            self.event(f"{name}: t{kept} absorbed {', '.join(f't{k}' for k in absorbed)} "
+                       "(parts of one person)", debug)
+        for _, labels in t.groups:
+            self.event(f"{name}: group cut into {', '.join(f't{k}' for k in labels)} "
+                       "(left to right)", debug)
         if t.retirements:
             self.event(f"{name}: retired {', '.join(f't{r}' for r in t.retirements)}", debug)
 
