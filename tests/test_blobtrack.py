@@ -219,11 +219,12 @@ def test_a_target_left_with_a_leg_of_a_person_is_absorbed(part_merge_frames: int
     alone, reaching far below the feet: no leg of the person. It then joins the person, and the
     division keeps giving it a leg-sized share at the person's feet. After part_merge_frames
     such frames in a row it is absorbed by the person and retires; with 0 it stays a second
-    target on one person (generated 'three' seed 4 cam1: 87 frames)."""
+    target on one person (generated 'three' seed 4 cam1: 87 frames). (Its share is also
+    small enough for it to be hidden, merge_hidden_frac: that rule is off here.)"""
     person = (20, 10, 35, 60)
     frames = [blobs(person, (38, 52, 56, 84)), blobs(person, (34, 52, 50, 70))]
     frames += [blobs(person, (36, 45, 40, 60)) for _ in range(14)]
-    cfg = replace(CFG, part_merge_frames=part_merge_frames)
+    cfg = replace(CFG, part_merge_frames=part_merge_frames, merge_hidden_frac=0.0)
     state, res = tracker_init(), []
     for mvo in frames:
         state, r = track_masks(state, mvo, None, cfg)
@@ -237,6 +238,33 @@ def test_a_target_left_with_a_leg_of_a_person_is_absorbed(part_merge_frames: int
         assert all(r.labels.tolist() == [1] and not r.births for r in res[11:])
     else:
         assert all(r.labels.tolist() == [1, 2] and not r.reunions for r in res[11:])
+
+
+@pytest.mark.parametrize("merge_hidden_frac", [0.2, 0.0])
+def test_a_merged_target_left_with_a_sliver_is_hidden_and_retires(
+        merge_hidden_frac: float) -> None:
+    """A target merged with a person whose share of the blob stays under merge_hidden_frac of
+    its template (here a patch beside the feet: 60 of 627 px) for merge_hidden_frames frames
+    is hidden behind something that is not foreground: it then takes no part in the division
+    and retires, and the person takes the whole blob (generated 'pillar' seed 1 cam0: a
+    person walking behind the pillar kept 20 px of the person they had merged with for 49
+    frames). With 0 only a target given no pixel retires."""
+    person = (20, 10, 35, 60)
+    frames = [blobs(person, (38, 52, 56, 84)), blobs(person, (34, 52, 50, 70))]
+    frames += [blobs(person, (36, 45, 40, 60)) for _ in range(10)]
+    cfg = replace(CFG, part_merge_frames=0, merge_hidden_frac=merge_hidden_frac)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    small = [r.areas_px[1] for r in res[2:7]]
+    assert all(a < 0.2 * 19 * 33 for a in small) and res[1].areas_px[1] > 0.2 * 19 * 33
+    assert all(r.merges == ((1, (1, 2)),) for r in res[1:7])
+    if merge_hidden_frac:
+        assert res[7].retirements == (2,) and res[7].merges == ()
+        assert all(r.labels.tolist() == [1] and r.areas_px[0] == 16 * 51 + 5 * 16 for r in res[7:])
+    else:
+        assert all(r.labels.tolist() == [1, 2] for r in res[7:])
 
 
 def test_split_off_fragment_stays_with_its_parent() -> None:

@@ -17,9 +17,11 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
 2. A blob that is the continuation of exactly one previous target inherits its label.
 3. A blob that is the continuation of two or more previous targets is a *merge*: its pixels are
    divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
-   target that receives no pixel is fully occluded and is retired; one predicted past the left,
-   right or bottom border has walked out and is retired too (``merge_exit``; the pixels the
-   division gives it stay unlabelled, not someone else's). Targets that were parts of
+   target that receives no pixel is fully occluded and is retired, and so is one given under
+   ``merge_hidden_frac`` of its template for ``merge_hidden_frames`` frames in a row (behind
+   something that is not foreground, it was fed a sliver of its neighbour); one predicted
+   past the left, right or bottom border has walked out and is retired too (``merge_exit``;
+   the pixels the division gives it stay unlabelled, not someone else's). Targets that were parts of
    one person (stacked head and body, or a leg inside its person's box) reunite instead: the
    largest keeps its label (:func:`_reunite`, ``reunite_fragments``). Stacked parts taller
    together than the camera's size line says a person is there are two people, one behind the
@@ -112,6 +114,8 @@ class TargetTrack:
     rejoined:              int, frames in a row it has shared one merged blob with cut_from
     as_part:               int, frames in a row its share of a merged blob was a leg part of
                            the blob (:func:`_merged_parts`)
+    hidden:                int, frames in a row it was merged and given under
+                           ``merge_hidden_frac`` of its template's pixels
     """
 
     label: int
@@ -125,6 +129,7 @@ class TargetTrack:
     cut_from: int = 0
     rejoined: int = 0
     as_part: int = 0
+    hidden: int = 0
 
     def velocity_xy(self) -> np.ndarray:
         """(2,) float64 px/frame: mean displacement over the remembered centroids."""
@@ -578,6 +583,15 @@ def _reunite(
     return tuple(sorted(kept))
 
 
+def _not_hidden(heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], cfg: TrackerConfig
+                ) -> tuple[int, ...]:
+    """The heirs of a merged blob less those hidden (``merge_hidden_frames`` frames in a row
+    with a share under ``merge_hidden_frac`` of their template: behind something that is not
+    foreground), which receive no pixel and retire; all of them if every one is."""
+    seen = tuple(r for r in heirs if targets[r].hidden < cfg.merge_hidden_frames)
+    return seen or heirs
+
+
 def _walked_out(tracks: list[TargetTrack], shape: tuple[int, ...], cfg: TrackerConfig
                 ) -> frozenset[int]:
     """Labels of the merged targets predicted past the left, right or bottom frame border (the
@@ -886,6 +900,7 @@ def _new_mask_track(
         template_centroid_xy=local,
         colour_hist=hist,
         merged=False,
+        hidden=0,
     )
 
 
@@ -932,7 +947,7 @@ def track_masks(
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
             work.two_heads |= _two_heads(heirs, state.targets, cur, int(blob_id), window, cfg)
-            heirs = _reunite(heirs, state.targets, work, ctx)
+            heirs = _reunite(_not_hidden(heirs, state.targets, cfg), state.targets, work, ctx)
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
             grown = _crop_window(window, tracks, cur.shape)
@@ -1036,11 +1051,14 @@ def _finish_masks(
         areas.append(float(crop.sum()))
         if int(lab) in work.merged:  # keep the pre-merge template and colours
             prev = old[int(lab)]
+            small = prev.template is not None and areas[-1] < cfg.merge_hidden_frac * float(
+                prev.template.sum())
             fresh = replace(
                 prev,
                 centroids_xy=_push_centroid(prev, work.centroids[int(lab)], cfg),
                 box_xywh=fresh.box_xywh,
                 merged=True,
+                hidden=prev.hidden + 1 if small else 0,
             )
         tracks.append(_count_rejoined(fresh, work))
     if ctx.cfg.part_merge_frames > 0:
