@@ -261,10 +261,10 @@ def test_a_merged_target_left_with_a_sliver_is_hidden_and_retires(
     assert all(a < 0.2 * 19 * 33 for a in small) and res[1].areas_px[1] > 0.2 * 19 * 33
     assert all(r.merges == ((1, (1, 2)),) for r in res[1:7])
     if merge_hidden_frac:
-        assert res[7].retirements == (2,) and res[7].merges == ()
+        assert res[7].retirements == res[7].hidden == (2,) and res[7].merges == ()
         assert all(r.labels.tolist() == [1] and r.areas_px[0] == 16 * 51 + 5 * 16 for r in res[7:])
     else:
-        assert all(r.labels.tolist() == [1, 2] for r in res[7:])
+        assert all(r.labels.tolist() == [1, 2] and not r.hidden for r in res[7:])
 
 
 def test_split_off_fragment_stays_with_its_parent() -> None:

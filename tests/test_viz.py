@@ -596,8 +596,9 @@ def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:
 
 def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:
     """Beside births, splits, merges and retirements, the event log tells the fragments a
-    target absorbed (a leg or a head tracked apart, which then retires) and the people a group
-    blob was cut into, so a label that vanishes or appears has its reason at its frame."""
+    target absorbed (a leg or a head tracked apart, which then retires), the people a group
+    blob was cut into and the merged targets found hidden, so a label that vanishes or appears
+    has its reason at its frame."""
     from types import SimpleNamespace
 
     from mvtrack.viz.sink import RerunSink
@@ -605,8 +606,11 @@ def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:
     told: list[str] = []
     sink = SimpleNamespace(event=lambda msg, level=None: told.append(msg))
     tracks = SimpleNamespace(births=(9,), splits=(), merges=((4, (4, 7)),),
-                             reunions=((3, (6,)),), groups=((2, (8, 1)),), retirements=(6,))
+                             reunions=((3, (6,)),), groups=((2, (8, 1)),), hidden=(5,),
+                             retirements=(5, 6))
     RerunSink._tracker_events(sink, "cam0", SimpleNamespace(tracks=tracks))  # type: ignore[arg-type]
     assert told == ["cam0: new targets t9", "cam0: merged t4 + t7",
                     "cam0: t3 absorbed t6 (parts of one person)",
-                    "cam0: group cut into t8, t1 (left to right)", "cam0: retired t6"]
+                    "cam0: group cut into t8, t1 (left to right)",
+                    "cam0: t5 hidden (given a sliver of a merged blob for several frames)",
+                    "cam0: retired t5, t6"]

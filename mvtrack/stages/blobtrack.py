@@ -214,6 +214,8 @@ class TrackResult:
                       of one person (masks only); the absorbed labels are retired
     groups:           (blob id, (labels left to right...)) per unmerged blob cut into people
                       by :func:`group_cuts` (masks only)
+    hidden:           labels left out of a merge division as hidden (``merge_hidden_frac``;
+                      masks only); they are retired
     """
 
     labels: np.ndarray
@@ -232,6 +234,7 @@ class TrackResult:
     merge_divisions: tuple[MergeDivision, ...] = ()
     reunions: tuple[tuple[int, tuple[int, ...]], ...] = ()
     groups: tuple[tuple[int, tuple[int, ...]], ...] = ()
+    hidden: tuple[int, ...] = ()
 
     def index_of(self, label: int) -> int | None:
         """Row of ``label`` in this frame, or None if absent."""
@@ -498,6 +501,7 @@ class _Frame:
     extra_labels: list[tuple[int, int]] = field(default_factory=list)  # (blob index, label)
     cut_from: dict[int, int] = field(default_factory=dict)  # new group part -> label cut from
     two_heads: set[int] = field(default_factory=set)  # merged with a group sibling, two heads
+    hidden: list[int] = field(default_factory=list)  # labels left out of a division as hidden
     groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
 
 
@@ -583,13 +587,17 @@ def _reunite(
     return tuple(sorted(kept))
 
 
-def _not_hidden(heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], cfg: TrackerConfig
-                ) -> tuple[int, ...]:
+def _not_hidden(heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: _Frame,
+                cfg: TrackerConfig) -> tuple[int, ...]:
     """The heirs of a merged blob less those hidden (``merge_hidden_frames`` frames in a row
     with a share under ``merge_hidden_frac`` of their template: behind something that is not
-    foreground), which receive no pixel and retire; all of them if every one is."""
+    foreground), which receive no pixel and retire (recorded in ``work.hidden``); all of them
+    if every one is."""
     seen = tuple(r for r in heirs if targets[r].hidden < cfg.merge_hidden_frames)
-    return seen or heirs
+    if not seen:
+        return heirs
+    work.hidden += [targets[r].label for r in heirs if r not in seen]
+    return seen
 
 
 def _walked_out(tracks: list[TargetTrack], shape: tuple[int, ...], cfg: TrackerConfig
@@ -947,7 +955,8 @@ def track_masks(
         heirs = plan.inheritors[b]
         if len(heirs) >= 2:
             work.two_heads |= _two_heads(heirs, state.targets, cur, int(blob_id), window, cfg)
-            heirs = _reunite(_not_hidden(heirs, state.targets, cfg), state.targets, work, ctx)
+            heirs = _not_hidden(heirs, state.targets, work, cfg)
+            heirs = _reunite(heirs, state.targets, work, ctx)
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
             grown = _crop_window(window, tracks, cur.shape)
@@ -1084,6 +1093,7 @@ def _finish_masks(
         merge_divisions=tuple(work.divisions),
         reunions=tuple(work.reunions),
         groups=tuple(work.groups),
+        hidden=tuple(sorted(work.hidden)),
     )
     new_state = TrackerState(
         label_image=work.label_image.copy(), targets=tuple(tracks), next_label=work.next_label

@@ -76,7 +76,7 @@ Events and metrics::
 
     /events                         TextLog: FOV events, associations, homography estimates,
                                     tracker births/splits/merges/retirements, fragments
-                                    absorbed and group cuts, warnings
+                                    absorbed, group cuts, hidden merged targets, warnings
     /metrics/targets/{cam}          Scalars: targets in ``cam``
     /metrics/stage_ms/{stage}       Scalars: milliseconds per stage (all cameras)
     /metrics/log_ms                 Scalars: milliseconds spent logging the frame

@@ -383,6 +383,9 @@ class RerunSink:
         for _, labels in t.groups:
             self.event(f"{name}: group cut into {', '.join(f't{k}' for k in labels)} "
                        "(left to right)", debug)
+        if t.hidden:
+            self.event(f"{name}: {', '.join(f't{k}' for k in t.hidden)} hidden (given a sliver "
+                       "of a merged blob for several frames)", debug)
         if t.retirements:
             self.event(f"{name}: retired {', '.join(f't{r}' for r in t.retirements)}", debug)
 
