@@ -113,7 +113,7 @@ class TargetTrack:
                            part (0: none)
     rejoined:              int, frames in a row it has shared one merged blob with cut_from
     as_part:               int, frames in a row its share of a merged blob was a leg part of
-                           the blob (:func:`_merged_parts`)
+                           the blob (:func:`_legs_of`)
     hidden:                int, frames in a row it was merged and given under
                            ``merge_hidden_frac`` of its template's pixels
     """
@@ -495,6 +495,7 @@ class _Frame:
     centroids: dict[int, np.ndarray] = field(default_factory=dict)
     merged: set[int] = field(default_factory=set)
     blob_of: dict[int, int] = field(default_factory=dict)
+    merged_boxes: dict[int, np.ndarray] = field(default_factory=dict)  # merged blob id -> box
     merges: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     divisions: list[MergeDivision] = field(default_factory=list)
     reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
@@ -668,25 +669,6 @@ def _long_parts(
         if targets[r].as_part >= cfg.part_merge_frames:
             linked[i, int(np.argmax(shared[i]))] = True
     return linked
-
-
-def _merged_parts(labels: np.ndarray, boxes: list[np.ndarray], work: _Frame, ctx: _Inputs
-                  ) -> set[int]:
-    """The merged targets among ``labels`` whose box this frame (``boxes``, their share of the
-    blob) is a leg part (:func:`_legs_of`) of the box of all the blob's shares."""
-    blob_boxes: dict[int, list[np.ndarray]] = {}
-    for lab, box in zip(labels.tolist(), boxes, strict=True):
-        if lab in work.merged:
-            blob_boxes.setdefault(work.blob_of[lab], []).append(box)
-    parts = set()
-    for lab, box in zip(labels.tolist(), boxes, strict=True):
-        if lab not in work.merged:
-            continue
-        shares = np.stack(blob_boxes[work.blob_of[lab]])
-        lo, hi = shares[:, :2].min(axis=0), (shares[:, :2] + shares[:, 2:]).max(axis=0)
-        if _legs_of(np.stack([box, np.r_[lo, hi - lo]]), ctx)[0, 1]:
-            parts.add(lab)
-    return parts
 
 
 def _blob_box(window: tuple[slice, slice]) -> np.ndarray:
@@ -909,6 +891,7 @@ def _new_mask_track(
         colour_hist=hist,
         merged=False,
         hidden=0,
+        as_part=0,
     )
 
 
@@ -960,6 +943,7 @@ def track_masks(
         if len(heirs) >= 2:
             tracks = [state.targets[r] for r in heirs]
             grown = _crop_window(window, tracks, cur.shape)
+            work.merged_boxes[int(blob_id)] = _blob_box(window)
             _merge_blob(work, int(blob_id), grown, cur[grown] == blob_id, tracks, ctx)
             continue
         whole = _parent_fragment(b, plan, slices, blob_ids, ctx) if not heirs else -1
@@ -1062,18 +1046,17 @@ def _finish_masks(
             prev = old[int(lab)]
             small = prev.template is not None and areas[-1] < cfg.merge_hidden_frac * float(
                 prev.template.sum())
+            blob_box = work.merged_boxes[work.blob_of[int(lab)]]
+            leg = bool(_legs_of(np.stack([fresh.box_xywh, blob_box]), ctx)[0, 1])
             fresh = replace(
                 prev,
                 centroids_xy=_push_centroid(prev, work.centroids[int(lab)], cfg),
                 box_xywh=fresh.box_xywh,
                 merged=True,
                 hidden=prev.hidden + 1 if small else 0,
+                as_part=prev.as_part + 1 if leg else 0,
             )
         tracks.append(_count_rejoined(fresh, work))
-    if ctx.cfg.part_merge_frames > 0:
-        parts = _merged_parts(labels, boxes, work, ctx)
-        tracks = [replace(t, as_part=t.as_part + 1 if t.label in parts else 0)
-                  if t.as_part or t.label in parts else t for t in tracks]
     births, splits = _events(work.plan, rows, work.new_labels, work.extra_labels)
     present = set(labels.tolist())
     result = TrackResult(
