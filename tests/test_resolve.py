@@ -321,6 +321,22 @@ def test_fragments_of_one_person_join_but_not_after_a_long_gap() -> None:
     assert len(set(near.meta[rows.meta == 9].tolist())) == 1
 
 
+def test_a_person_seen_together_for_a_few_frames_keeps_one_meta() -> None:
+    """pillar seed 2: cam1 sees a person again (target 9, a new online meta) three frames before
+    cam0, which had them all along, loses them at its border. Those frames agree under H, and
+    min_votes of them link the two: one meta for the person's whole walk. One frame fewer in
+    common, or min_votes 5, and the walk after is another person's."""
+    def rows(last: int):
+        return _rows([("cam0", 1, 1, range(0, last), (100.0, 100.0)),
+                      ("cam1", 9, 24, range(97, 160), (100.0, 100.0))])
+    seen = rows(100)
+    assert len(set(resolve_labels(seen, [("cam0", "cam1", SHIFT)], CFG).meta.tolist())) == 1
+    assert CFG.min_votes == 3
+    strict = resolve_labels(seen, [("cam0", "cam1", SHIFT)], replace(CFG, min_votes=5))
+    assert len(set(strict.meta.tolist())) == 2
+    assert len(set(resolve_labels(rows(99), [("cam0", "cam1", SHIFT)], CFG).meta.tolist())) == 2
+
+
 def test_legs_tracked_apart_join_their_person_by_fragment_votes() -> None:
     """cam0 tracks a person's legs apart (target 7, 20 px tall, 25 frames inside the torso
     target 1's life, feet 5 px away): the assignment always picks the torso, yet the legs vote
