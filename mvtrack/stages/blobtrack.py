@@ -566,9 +566,8 @@ def _reunite(
 ) -> tuple[int, ...]:
     """The heirs of a merged blob that are distinct people: of every group of fragment targets
     (stacked, :func:`_stacked`, or a leg inside its person's box, :func:`_legs_of`, on their
-    previous boxes, or a long leg part of the blob, :func:`_long_parts`) only the largest
-    stays, never a long leg part; the others are recorded as absorbed in ``work.reunions``
-    and, receiving no pixel, retire."""
+    previous boxes) only the largest stays; the others are recorded as absorbed in
+    ``work.reunions`` and, receiving no pixel, retire."""
     if not ctx.cfg.reunite_fragments:
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
@@ -581,8 +580,8 @@ def _reunite(
     kept = []
     for g in range(n_groups):
         members = [heirs[i] for i in np.flatnonzero(group == g)]
-        # a long leg part goes whatever its size (its template may be a whole person's:
-        # one leaving by the bottom border while merged with the one behind)
+        # a long leg part is absorbed whatever its size (its template may be a whole
+        # person's: one leaving by the bottom border while merged with the one behind)
         members.sort(key=lambda r: (targets[r].as_part >= ctx.cfg.part_merge_frames,
                                     -_target_size(targets[r]), targets[r].label))
         kept.append(members[0])
