@@ -580,10 +580,7 @@ def _reunite(
     kept = []
     for g in range(n_groups):
         members = [heirs[i] for i in np.flatnonzero(group == g)]
-        # a long leg part is absorbed whatever its size (its template may be a whole
-        # person's: one leaving by the bottom border while merged with the one behind)
-        members.sort(key=lambda r: (targets[r].as_part >= ctx.cfg.part_merge_frames,
-                                    -_target_size(targets[r]), targets[r].label))
+        members.sort(key=lambda r: (-_target_size(targets[r]), targets[r].label))
         kept.append(members[0])
         if len(members) > 1:
             absorbed = tuple(sorted(targets[r].label for r in members[1:]))
