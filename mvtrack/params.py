@@ -1084,9 +1084,10 @@ class ResolveConfig(_Checked):
     # height 25 px): over the sweep's 72 runs doors seed 0 IDF1 0.898 -> 0.920, no other change.
     # 1.0 -> 0.5: held-out 'pair' seed 6, cam1's target followed person 4 out over the left
     # border at the top-left corner and went on as person 7 coming in there (feet 0.58 heights
-    # higher from one frame to the next): two people one meta, IDF1 0.825 -> 0.950. Seeds 0-2
-    # +0.0001, one_edge s3 0.982 -> 0.980 (the cut 6 frames late), tilted s6 -0.001; fresh
-    # seeds 8-9 (looked at after the choice): crowd s8 0.882 -> 0.895, nothing else moves.
+    # higher from one frame to the next): two people one meta, IDF1 0.825 -> 0.950; gray s6
+    # (the same scene) 0.859 -> 0.985. Seeds 0-2 +0.0001, one_edge s3 0.982 -> 0.980 (the cut
+    # 6 frames late); fresh seeds 8-9 (looked at after the choice): crowd s8 0.882 -> 0.895,
+    # nothing else moves.
     switch_jump_heights: float = param(
         0.5, "...or, for two partners never seen together, if its feet jump more than this many "
         "heights in one frame between the runs", 0.0, 100.0,
