@@ -240,6 +240,27 @@ def test_a_target_left_with_a_leg_of_a_person_is_absorbed(part_merge_frames: int
         assert all(r.labels.tolist() == [1, 2] and not r.reunions for r in res[11:])
 
 
+def test_a_person_leaving_by_the_bottom_is_absorbed_not_the_one_behind() -> None:
+    """A near person leaving by the bottom border (their template, 26 x 35 px, is larger than
+    that of the person behind them, 12 x 71) walks in front of that person's legs. Their share
+    of the merged blob is a leg part of it, and after part_merge_frames frames the two
+    reunite. Kept is the larger target in view: the leaving person's template, moved on with
+    them, is by then partly past the border, and the person behind keeps their label
+    (generated 'tilted' seed 1 cam1, frame 80: the leaving person's label went on as the
+    person behind, and the two people's labels across cameras were swapped)."""
+    sizes = SizeModel(line=(0.2, 50.0))  # 70 px tall at row 100.5, 74 at the bottom
+    frames = [blobs((40, 30, 51, 100), (56, 85, 81, 119))]
+    frames += [blobs((40, 30, 51, 100), (48, 85 + k, 73, 119)) for k in range(1, 14)]
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, CFG, sizes)
+        res.append(r)
+    assert res[0].labels.tolist() == [1, 2] and res[0].areas_px[1] > res[0].areas_px[0]
+    assert all(r.merges == ((1, (1, 2)),) for r in res[1:11])
+    assert res[11].reunions == ((1, (2,)),) and res[11].retirements == (2,)
+    assert all(r.labels.tolist() == [1] and not r.births for r in res[11:])
+
+
 @pytest.mark.parametrize("merge_hidden_frac", [0.2, 0.0])
 def test_a_merged_target_left_with_a_sliver_is_hidden_and_retires(
         merge_hidden_frac: float) -> None:

@@ -113,19 +113,21 @@ def test_a_clip_with_few_passers_by_still_learns_its_homography(tmp_path: Any) -
     consistency 0.020); accepted once nothing refuted it, it is refitted from markers. So few
     markers make the end result depend on RANSAC's draws, so the test takes the median over
     draws 0-2. Measured: transfer error medians 3.4 / 4.4 / 3.8 px (p90 11.7 / 11.4 / 8.2),
-    IDF1 0.949 and consistency 0.986 with each. In cam0 the first person's legs come apart
+    IDF1 0.969 and consistency 0.986 with each. In cam0 the first person's legs come apart
     from the torso in the steep view (frame 65) and were a second target until frame 113,
     fed by the merge division (consistency 0.946, medians 5.0 / 4.4 / 4.2 px); as a leg part
-    of the merged blob for tracker.part_merge_frames frames it is absorbed. Before fragments
-    taller together than a person stopped reuniting: 4.4 / 12.3 / 12.0 px, IDF1 0.951 / 0.951
-    / 0.831."""
+    of the merged blob for tracker.part_merge_frames frames it is absorbed. In cam1 a person
+    leaving by the bottom border while merged with the one behind is such a part too (frame
+    80): while the larger template of the two was kept, not the larger in view, the two
+    people's labels were swapped (IDF1 0.949). Before fragments taller together than a
+    person stopped reuniting: 4.4 / 12.3 / 12.0 px, IDF1 0.951 / 0.951 / 0.831."""
     clip = _generate(tmp_path, "tilted", 1)
     runs = [_track(clip, tmp_path / f"draw{d}", f"homography.ransac_seed={d}") for d in range(3)]
     for m in runs:
         assert m["pairs"][0]["first_valid_H"] is not None, m["pairs"]
     median_px = sorted(m["pairs"][0]["transfer_error_px"]["median"] for m in runs)[1]
     assert median_px <= 5.0, [m["pairs"][0]["transfer_error_px"] for m in runs]
-    assert sorted(m["labels"]["idf1_global"] for m in runs)[1] >= 0.94, [m["labels"] for m in runs]
+    assert sorted(m["labels"]["idf1_global"] for m in runs)[1] >= 0.95, [m["labels"] for m in runs]
     assert sorted(m["labels"]["consistency"] for m in runs)[1] >= 0.98, [m["labels"] for m in runs]
 
 

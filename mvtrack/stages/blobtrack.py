@@ -23,14 +23,16 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    past the left, right or bottom border has walked out and is retired too (``merge_exit``;
    the pixels the division gives it stay unlabelled, not someone else's). Targets that were parts of
    one person (stacked head and body, or a leg inside its person's box) reunite instead: the
-   largest keeps its label (:func:`_reunite`, ``reunite_fragments``). Stacked parts taller
-   together than the camera's size line says a person is there are two people, one behind the
-   other, and stay a merge (``fragment_max_height_frac``; needs ``size_model``). A part cut
-   from a target by a group cut (rule 0) that shares one merged blob with it, the blob showing
-   one head, for ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false.
-   So does a merged target whose share of the blob has been a leg part of the blob for
-   ``part_merge_frames`` frames in a row (born on a leg or a shadow patch, so its template is
-   no leg of its person's and the merge did not reunite it).
+   largest in view keeps its label (:func:`_reunite`, ``reunite_fragments``; of one walking
+   out over the left, right or bottom border only the part of its template still inside
+   counts). Stacked parts taller together than the camera's size line says a person is there
+   are two people, one behind the other, and stay a merge (``fragment_max_height_frac``; needs
+   ``size_model``). A part cut from a target by a group cut (rule 0) that shares one merged
+   blob with it, the blob showing one head, for ``group_rejoin_frames`` frames in a row
+   reunites with it too: the cut was false. So does a merged target whose share of the blob
+   has been a leg part of the blob for ``part_merge_frames`` frames in a row (born on a leg or
+   a shadow patch, so its template is no leg of its person's and the merge did not reunite
+   it).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
@@ -548,8 +550,19 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     return part
 
 
-def _target_size(t: TargetTrack) -> float:
-    return float(t.template.sum()) if t.template is not None else float(t.box_xywh[2:].prod())
+def _size_in_view(t: TargetTrack, shape: tuple[int, ...]) -> float:
+    """Pixels of the target's template (boxes: its box area) times the share of its template
+    box (:func:`_template_box`) inside the left, right and bottom borders of a frame of
+    ``shape``: a target walking out over one keeps the template of when it was more in view.
+    Not the top, as in :func:`_walked_out` (generated 'doors' seed 0 cam1, frame 392: a far
+    person cut by the top border, whose shrinking share moved the prediction up, was taken
+    for one leaving and absorbed by a sliver of the person hidden behind the doors)."""
+    if t.template is None:
+        return float(t.box_xywh[2:].prod())
+    x, y, w, h = _template_box(t)
+    inside_w = min(x + w, shape[1] - _HALF_PX) - max(x, -_HALF_PX)
+    inside_h = min(y + h, shape[0] - _HALF_PX) - y
+    return float(t.template.sum()) * max(inside_w, 0.0) * max(inside_h, 0.0) / (w * h)
 
 
 def _template_box(t: TargetTrack) -> np.ndarray:
@@ -566,8 +579,8 @@ def _reunite(
 ) -> tuple[int, ...]:
     """The heirs of a merged blob that are distinct people: of every group of fragment targets
     (stacked, :func:`_stacked`, or a leg inside its person's box, :func:`_legs_of`, on their
-    previous boxes) only the largest stays; the others are recorded as absorbed in
-    ``work.reunions`` and, receiving no pixel, retire."""
+    previous boxes) only the largest in view (:func:`_size_in_view`) stays; the others are
+    recorded as absorbed in ``work.reunions`` and, receiving no pixel, retire."""
     if not ctx.cfg.reunite_fragments:
         return heirs
     boxes = np.stack([_template_box(targets[r]) for r in heirs])
@@ -577,10 +590,11 @@ def _reunite(
     n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
         return heirs
+    shape = work.label_image.shape
     kept = []
     for g in range(n_groups):
         members = [heirs[i] for i in np.flatnonzero(group == g)]
-        members.sort(key=lambda r: (-_target_size(targets[r]), targets[r].label))
+        members.sort(key=lambda r: (-_size_in_view(targets[r], shape), targets[r].label))
         kept.append(members[0])
         if len(members) > 1:
             absorbed = tuple(sorted(targets[r].label for r in members[1:]))
