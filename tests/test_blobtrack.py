@@ -13,7 +13,9 @@ from scipy import ndimage
 from mvtrack.params import TrackerConfig
 from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import (
+    TargetTrack,
     TrackerState,
+    _size_in_view,
     group_cuts,
     track_boxes,
     track_masks,
@@ -259,6 +261,22 @@ def test_a_person_leaving_by_the_bottom_is_absorbed_not_the_one_behind() -> None
     assert all(r.merges == ((1, (1, 2)),) for r in res[1:11])
     assert res[11].reunions == ((1, (2,)),) and res[11].retirements == (2,)
     assert all(r.labels.tolist() == [1] and not r.births for r in res[11:])
+
+
+@pytest.mark.parametrize(("centre_xy", "share"), [
+    ((100.0, 60.0), 1.0),  # inside
+    ((100.0, 119.5), 0.5),  # half past the bottom border
+    ((2.0, 60.0), 0.75),  # a quarter past the left border
+    ((199.5, 60.0), 0.5),  # half past the right border
+    ((100.0, -0.5), 1.0),  # half past the top: not counted (a far person cut by the top)
+])
+def test_the_size_in_view_counts_the_template_inside_all_borders_but_the_top(
+        centre_xy: tuple[float, float], share: float) -> None:
+    """A 10 x 20 px template whose box, at the predicted centroid, reaches past a border
+    counts with the share of it still inside."""
+    t = TargetTrack(label=1, centroids_xy=np.array([centre_xy]), box_xywh=np.zeros(4),
+                    template=np.ones((20, 10), bool), template_centroid_xy=np.array([4.5, 9.5]))
+    assert _size_in_view(t, (H, W)) == pytest.approx(200.0 * share)
 
 
 @pytest.mark.parametrize("merge_hidden_frac", [0.2, 0.0])
