@@ -15,7 +15,8 @@ from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import (
     TargetTrack,
     TrackerState,
-    _size_in_view,
+    _sizes_in_view,
+    _template_box,
     group_cuts,
     track_boxes,
     track_masks,
@@ -276,7 +277,7 @@ def test_the_size_in_view_counts_the_template_inside_all_borders_but_the_top(
     counts with the share of it still inside."""
     t = TargetTrack(label=1, centroids_xy=np.array([centre_xy]), box_xywh=np.zeros(4),
                     template=np.ones((20, 10), bool), template_centroid_xy=np.array([4.5, 9.5]))
-    assert _size_in_view(t, (H, W)) == pytest.approx(200.0 * share)
+    assert _sizes_in_view([t], _template_box(t)[None], (H, W))[0] == pytest.approx(200.0 * share)
 
 
 @pytest.mark.parametrize("merge_hidden_frac", [0.2, 0.0])

@@ -550,19 +550,23 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     return part
 
 
-def _size_in_view(t: TargetTrack, shape: tuple[int, ...]) -> float:
-    """Pixels of the target's template (boxes: its box area) times the share of its template
-    box (:func:`_template_box`) inside the left, right and bottom borders of a frame of
-    ``shape``: a target walking out over one keeps the template of when it was more in view.
-    Not the top, as in :func:`_walked_out` (generated 'doors' seed 0 cam1, frame 392: a far
-    person cut by the top border, whose shrinking share moved the prediction up, was taken
-    for one leaving and absorbed by a sliver of the person hidden behind the doors)."""
-    if t.template is None:
-        return float(t.box_xywh[2:].prod())
-    x, y, w, h = _template_box(t)
-    inside_w = min(x + w, shape[1] - _HALF_PX) - max(x, -_HALF_PX)
-    inside_h = min(y + h, shape[0] - _HALF_PX) - y
-    return float(t.template.sum()) * max(inside_w, 0.0) * max(inside_h, 0.0) / (w * h)
+def _sizes_in_view(tracks: list[TargetTrack], boxes: np.ndarray,
+                   shape: tuple[int, ...]) -> np.ndarray:
+    """(K,) float64: each target's template pixels (no template: its box area) times the share
+    of its template box (``boxes`` (K, 4), :func:`_template_box`) inside the left, right and
+    bottom borders of a frame of ``shape``: a target walking out over one keeps the template
+    of when it was more in view. Not the top, as in :func:`_walked_out` (generated 'doors'
+    seed 0 cam1, frame 392: a far person cut by the top border, whose shrinking share moved
+    the prediction up, was taken for one leaving and absorbed by a sliver of the person
+    hidden behind the doors)."""
+    rows, cols = shape[:2]
+    top = min(float(boxes[:, 1].min()), -_HALF_PX)  # the frame, open above
+    frame = np.array([-_HALF_PX, top, cols, rows - _HALF_PX - top])
+    area = boxes[:, 2] * boxes[:, 3]
+    share = box_intersections(boxes, frame)[:, 0] / np.maximum(area, 1e-9)
+    pixels = np.array([float(t.template.sum()) if t.template is not None else a
+                       for t, a in zip(tracks, area, strict=True)])
+    return pixels * share
 
 
 def _template_box(t: TargetTrack) -> np.ndarray:
@@ -579,7 +583,7 @@ def _reunite(
 ) -> tuple[int, ...]:
     """The heirs of a merged blob that are distinct people: of every group of fragment targets
     (stacked, :func:`_stacked`, or a leg inside its person's box, :func:`_legs_of`, on their
-    previous boxes) only the largest in view (:func:`_size_in_view`) stays; the others are
+    previous boxes) only the largest in view (:func:`_sizes_in_view`) stays; the others are
     recorded as absorbed in ``work.reunions`` and, receiving no pixel, retire."""
     if not ctx.cfg.reunite_fragments:
         return heirs
@@ -590,11 +594,11 @@ def _reunite(
     n_groups, group = link_groups(linked)
     if n_groups == len(heirs):
         return heirs
-    shape = work.label_image.shape
+    in_view = _sizes_in_view([targets[r] for r in heirs], boxes, work.label_image.shape)
     kept = []
     for g in range(n_groups):
-        members = [heirs[i] for i in np.flatnonzero(group == g)]
-        members.sort(key=lambda r: (-_size_in_view(targets[r], shape), targets[r].label))
+        members = [heirs[i] for i in sorted(np.flatnonzero(group == g),
+                                            key=lambda i: (-in_view[i], targets[heirs[i]].label))]
         kept.append(members[0])
         if len(members) > 1:
             absorbed = tuple(sorted(targets[r].label for r in members[1:]))
