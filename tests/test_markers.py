@@ -227,10 +227,11 @@ def test_comotion_confirm_holds_a_hypothesis_to_later_candidates() -> None:
     # found (whether or not new candidates came), then is "unrefuted": accepted as it was
     # (verification judges it from there), or dropped when so configured.
     stale = Comotion(wrong.H_b_from_a, ((7, 107),), (), 0)
-    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 95)[0] == "waiting"
-    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 101) == ("unrefuted", stale)
-    short = MarkerConfig(comotion_confirm_frames=50)
-    assert comotion_confirm(pool, stale, short, _fit, transfer_errors, 95) == ("unrefuted", stale)
+    assert cfg.comotion_confirm_frames == 50
+    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 50)[0] == "waiting"
+    assert comotion_confirm(pool, stale, cfg, _fit, transfer_errors, 51) == ("unrefuted", stale)
+    longer = MarkerConfig(comotion_confirm_frames=100)
+    assert comotion_confirm(pool, stale, longer, _fit, transfer_errors, 95)[0] == "waiting"
     strict = MarkerConfig(comotion_confirm_frames=50, comotion_accept_unrefuted=False)
     assert comotion_confirm(pool, stale, strict, _fit, transfer_errors, 95) == ("rejected", None)
     off = MarkerConfig(comotion_confirm_pairs=0)

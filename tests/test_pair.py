@@ -358,8 +358,8 @@ def test_one_person_unseen_in_turn_by_each_camera_is_one_miss(people: list[int],
 def test_a_held_swap_does_not_block_the_true_pairing() -> None:
     """Two people walking alike first fit a swapped pairing; after they leave, nothing can
     confirm or reject it. People who arrive later follow the true pairing, which a new search
-    holds beside the swap and their held-out candidates confirm, long before the swap would
-    time out (comotion_confirm_frames = 100)."""
+    holds beside the swap and their held-out candidates confirm before the swap would time
+    out and be accepted as unrefuted (comotion_confirm_frames after frame 0)."""
     cfg = PairConfigs()
     state = pair_init(("a", "b"), ((640, 480), (640, 480)))
     swap = Comotion(np.array([[1.0, 0, 230], [0, 1, 0], [0, 0, 1]]), ((1, 102), (2, 101)), (),
@@ -375,7 +375,7 @@ def test_a_held_swap_does_not_block_the_true_pairing() -> None:
             assert sorted(made) == [(4, 104), (5, 105), (6, 106)]
             break
         assert len(state.hypotheses) <= 3
-    assert linked_at is not None and linked_at <= 75
+    assert linked_at is not None and linked_at <= cfg.markers.comotion_confirm_frames
 
 
 def test_of_rivals_left_unrefuted_the_best_supported_is_accepted() -> None:
