@@ -780,8 +780,9 @@ class MarkerConfig(_Checked):
     # at frame 500 and learned no H in 600 frames (pair consistency 0.53, IDF1 0.922).
     # 100 -> 50 frames (2 s at 25 fps): accepted at 550, IDF1 0.978, consistency 1.0.
     # `mvtrack sweep`, seeds 0-11 (96 clips): nothing else loses more than 0.001 IDF1; 'pillar'
-    # s8 0.853 -> 0.941 (a different set of markers: both accept the same hypothesis, at 300
-    # instead of 325), seeds 0-2 unchanged but for earlier first H ('three' s0 475 -> 425).
+    # s8 0.853 -> 0.941 (both accept the same hypothesis, at 300 by this timeout instead of
+    # 325 with a newcomer's confirmation, and the markers that follow differ), seeds 0-2
+    # unchanged but for earlier first H ('three' s0 475 -> 425).
     comotion_confirm_frames: int = param(
         50, "bootstrap: held-out check: a hypothesis neither confirmed nor refuted within this "
         "many frames is accepted or dropped (comotion_accept_unrefuted)", 1, 1000000,

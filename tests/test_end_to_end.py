@@ -1,9 +1,9 @@
 """The whole pipeline as a user runs it on a generated clip: generate, track, eval.
 
 One 600-frame pair clip at 320x240 (the issue targets' clip length), tracked twice: with the
-default homography matcher and with the FOV-only baseline (``--matcher fov``); and two clips of
-other generator seeds on which pair learning used to fail. Nothing here uses ground truth
-except ``mvtrack eval``. Each bound is a measured value with a margin; the
+default homography matcher and with the FOV-only baseline (``--matcher fov``); and clips of
+other generator seeds and scenarios on which pair learning used to fail. Nothing here uses
+ground truth except ``mvtrack eval``. Each bound is a measured value with a margin; the
 issue targets that are not met yet are named where the bound is looser than the target.
 """
 
