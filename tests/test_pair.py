@@ -378,6 +378,30 @@ def test_a_held_swap_does_not_block_the_true_pairing() -> None:
     assert linked_at is not None and linked_at <= cfg.markers.comotion_confirm_frames
 
 
+def test_a_strong_hypothesis_found_as_a_held_swap_times_out_is_taken_over_the_swap() -> None:
+    """A swapped pairing held since frame 0 (its people gone) times out unrefuted at the round
+    of frame 75, the round in which people who came after it first show a pairing that four
+    pairs follow (strong: ``comotion_accept_pairs``, here with 3 inliers each). That search
+    wins: accepting the timed-out swap first kept a wrong H online until verification dropped
+    it (generated 'pair' seed 0: the swap at frame 125, the true pairing only at 275)."""
+    cfg = PairConfigs.from_params(load_params(None, ["markers.comotion_accept_support=3"]))
+    assert cfg.markers.comotion_confirm_frames < 75
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    swapped = tuple(Marker(5 * i, a_label, 103 - a_label, (40.0 * i + 20, 30.0 * a_label + 25 * i),
+                           (40.0 * i + 250, 30.0 * a_label + 25 * i), 30.0, 30.0)
+                    for i in range(6) for a_label in (1, 2))
+    swap = Comotion(np.array([[1.0, 0, 230], [0, 1, 0], [0, 0, 1]]), ((1, 102), (2, 101)),
+                    swapped, since=0)
+    state = replace(state, hypotheses=(swap,))
+    made: list[tuple[int, int]] = []
+    for f in range(1, 76):
+        a, b = _walkers_seen_twice(f, [4, 5, 6, 7] if f > 60 else [])
+        state, res = pair_step(state, a, b, cfg, f)
+        made += [(x, y) for x, y, ev in res.associations if ev.kind == "comotion"]
+    assert sorted(made) == [(4, 104), (5, 105), (6, 106), (7, 107)]
+    assert state.markers.cells and all(m.a_label >= 4 for m in state.markers.cells.values())
+
+
 def test_of_rivals_left_unrefuted_the_best_supported_is_accepted() -> None:
     """Two hypotheses held since frame 0 whose people left (nothing confirms or refutes them):
     once ``comotion_confirm_frames`` passed, the one more candidates followed is accepted and

@@ -495,9 +495,13 @@ def _bootstrap(
 
 def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs,
             frame: int) -> tuple[Comotion | None, list[Comotion]]:
-    """One bootstrap round: the first held hypothesis the pool confirms, else the
-    best-supported (most inlier candidates) of those left unrefuted long enough, else a new
-    search. Returns (accepted or None, hypotheses still held)."""
+    """One bootstrap round: the first held hypothesis the pool confirms, else a new search's
+    if it is strong enough to need no held-out check (:func:`_strong`), else the
+    best-supported (most inlier candidates) of those left unrefuted long enough, else the new
+    search's held. A hypothesis that only timed out is weaker evidence than one that four
+    target pairs follow now: generated 'pair' seed 0 held a swap of its first two people from
+    frame 50, which timed out in the round that first found the true pairing of four. Returns
+    (accepted or None, hypotheses still held)."""
     mcfg = cfg.markers
     held: list[Comotion] = []
     unrefuted: list[Comotion] = []
@@ -508,11 +512,12 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
             return checked, held
         if checked is not None:
             (unrefuted if verdict == "unrefuted" else held).append(checked)
-    if unrefuted:  # rivals found from the same people: more support is the better pairing
-        return max(unrefuted, key=lambda h: len(h.markers)), held
     rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
     found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
-    if found is None or mcfg.comotion_confirm_pairs == 0 or _strong(found, mcfg):
+    strong = found is not None and _strong(found, mcfg)
+    if unrefuted and not strong:  # rivals from the same people: more support pairs better
+        return max(unrefuted, key=lambda h: len(h.markers)), held
+    if found is None or mcfg.comotion_confirm_pairs == 0 or strong:
         return found, held
     if all(set(found.links) != set(h.links) for h in held):
         held = [*held, found][-_MAX_HYPOTHESES:]
