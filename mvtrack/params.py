@@ -782,7 +782,11 @@ class MarkerConfig(_Checked):
     # `mvtrack sweep`, seeds 0-11 (96 clips): nothing else loses more than 0.001 IDF1; 'pillar'
     # s8 0.853 -> 0.941 (both accept the same hypothesis, at 300 by this timeout instead of
     # 325 with a newcomer's confirmation, and the markers that follow differ), seeds 0-2
-    # unchanged but for earlier first H ('three' s0 475 -> 425).
+    # unchanged but for earlier first H ('three' s0 475 -> 425). The cost is online, where an
+    # early H from fewer people can be dropped again: 'pillar' s10's labels as assigned online
+    # (tracks_online.csv) 0.786 -> 0.621 (three pairs' H accepted at frame 175 and dropped;
+    # at 100 a fourth pair confirmed it at 225), 'three' s7 -0.025, s5 +0.026; seeds 3-11
+    # online mean 0.7981 -> 0.7959.
     comotion_confirm_frames: int = param(
         50, "bootstrap: held-out check: a hypothesis neither confirmed nor refuted within this "
         "many frames is accepted or dropped (comotion_accept_unrefuted)", 1, 1000000,
