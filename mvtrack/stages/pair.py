@@ -497,11 +497,11 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
             frame: int) -> tuple[Comotion | None, list[Comotion]]:
     """One bootstrap round: the first held hypothesis the pool confirms, else a new search's
     if it is strong enough to need no held-out check (:func:`_strong`), else the
-    best-supported (most inlier candidates) of those left unrefuted long enough, else the new
-    search's held. A hypothesis that only timed out is weaker evidence than one that four
-    target pairs follow now: generated 'pair' seed 0 held a swap of its first two people from
-    frame 50, which timed out in the round that first found the true pairing of four. Returns
-    (accepted or None, hypotheses still held)."""
+    best-supported (most inlier candidates) of those left unrefuted long enough, else none
+    (the new search's hypothesis is held). A hypothesis that only timed out is weaker
+    evidence than one that four target pairs follow now: generated 'pair' seed 0 held a swap
+    of its first two people from frame 50, which timed out in the round that first found the
+    true pairing of four. Returns (accepted or None, hypotheses still held)."""
     mcfg = cfg.markers
     held: list[Comotion] = []
     unrefuted: list[Comotion] = []
