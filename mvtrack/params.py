@@ -157,6 +157,16 @@ class BackgroundConfig(_Checked):
     # 4.00 px. Growing through foreground shadow only (not D_B > T_L fragments): IDF1 0.809.
     # Corridor width 0.06/0.12/0.25 and min gap 0.05/0.1/0.2 were compared on pair/tilted;
     # legs_stop_frac -0.08 (past the predicted feet) over draws 0 and 1: IDF1 0.840 -> 0.838.
+    # Where the size line predicts the feet too low, legs that are all there grow on into the
+    # cast shadow below them: 'tilted' s3 cam1 (line slope 0.46-0.66 for a true 0.25, from
+    # far people who lost their legs and near ones with a shadow; worst foot median 8.5 px)
+    # and MVOs cut by the top of the frame, whose top is not the head ('three' s0 cam1, 109
+    # false alarms, precision 0.810). No regrowth for MVOs cut by the top: 'three' s0 precision
+    # 0.949, but seeds 0-2 IDF1 0.9662 -> 0.9621 (people at the top who did lose their legs,
+    # 'pair' s2 0.961 -> 0.937); 0.3 more min gap for them: IDF1 0.9663, foot medians worse.
+    # Fitting the line to (top row, height), which a lost or grown bottom does not move, got
+    # 'tilted' s3 cam1's slope to 0.16 but s1 cam1's to 0.02 (true 0.20). Local texture (NCC
+    # of frame and background V, 5x5) marks the shadow's inside, not its edge at the feet.
     regrow_legs: bool = param(
         True, "changed pixels (shadow, D_B > T_L) growing down from an MVO's torso to the feet "
         "row the size line predicts are its legs"
@@ -672,6 +682,14 @@ class MarkerConfig(_Checked):
     # targets on a marker frame is a candidate correspondence; a RANSAC homography that several
     # distinct target pairs follow (one-to-one, mostly inliers) links them and their candidates
     # become markers. It finds the first H in scenes with few FOV events; 0 pairs turns it off.
+    # Where a pair sees only two people ('three' s6/s7/s10 cam1-cam2 before frame 545, one
+    # after the other: pair consistency 0-0.28, no H), two would be needed. With 2, seeds 0-2
+    # lose IDF1 0.9662 -> 0.9532 ('three' s0/s2: a wrong two-pair hypothesis accepted
+    # unrefuted after comotion_confirm_frames, consistency 0.995 -> 0.513, 0.999 -> 0.444);
+    # 'three' s7 gains (0.831 -> 0.969), s6 loses (0.859 -> 0.784). Two-pair hypotheses
+    # accepted only when a third pair confirms them (never unrefuted) changed none of 'three'
+    # s0/2/6/7/10. Truth feet of s6's two people with 2 px noise fit an H 5-15 px off at the
+    # median: two people walking by constrain H loosely.
     comotion_min_pairs: int = param(
         3, "bootstrap: distinct one-to-one target pairs that must follow the hypothesis (0 = off)",
         0, 100,
