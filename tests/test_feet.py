@@ -239,6 +239,38 @@ def test_feet_inside_the_mask_box(pixels, dilate) -> None:
         assert f.up @ np.array([0.0, -1.0]) >= math.cos(math.radians(45)) - 1e-9
 
 
+@settings(max_examples=200, deadline=None)
+@given(
+    st.lists(st.tuples(st.integers(0, 39), st.integers(0, 29)), min_size=1, max_size=120),
+    st.integers(0, 2),
+)
+def test_pca_feet_from_moments_and_outline_equal_those_from_every_pixel(pixels, dilate) -> None:
+    """feet_pca takes the pixels' mean and covariance from image moments and the upright box
+    from the outline: the same box, outline points and feet as projecting every pixel."""
+    m = np.zeros((30, 40), bool)
+    for x, y in pixels:
+        m[y, x] = True
+    m = ndimage.binary_dilation(m, iterations=dilate) if dilate else m
+    f = feet_pca(m, (7.0, 3.0))
+    ys, xs = np.nonzero(m)
+    pts = np.c_[xs, ys].astype(np.float64) + [7.0, 3.0]
+    centre = pts.mean(axis=0)
+    if len(pts) > 1:  # the axis: an eigenvector of the pixels' covariance (or image up)
+        cov = np.cov(pts.T)
+        assert np.allclose(cov @ f.up, (f.up @ cov @ f.up) * f.up, atol=1e-6) or np.allclose(
+            f.up, [0.0, -1.0])
+    down = -f.up
+    right = np.array([down[1], -down[0]])
+    u, v = (pts - centre) @ right, (pts - centre) @ down
+    corners = centre + np.array([[a, b] for a, b in (
+        (u.min(), v.min()), (u.max(), v.min()), (u.max(), v.max()), (u.min(), v.max()))]
+    ) @ np.array([right, down]) + 0.5 * np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]]) @ np.array(
+        [right, down])
+    np.testing.assert_allclose(f.box_corners_xy, corners, atol=1e-6)
+    for pick in f.outline_xy:  # outline picks are pixel centres of the mask
+        assert np.min(np.hypot(*(pts - pick).T)) < 1e-6
+
+
 # --------------------------------------------------------------------------- per target
 
 

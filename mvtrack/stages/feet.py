@@ -74,18 +74,15 @@ def _mask_points(mask: np.ndarray, offset_xy: tuple[float, float]) -> np.ndarray
     return pts + np.asarray(offset_xy, np.float64)
 
 
-def _height_axis(pts: np.ndarray, min_elongation: float) -> np.ndarray:
-    """Unit 'up' vector: the principal direction (of the four ±e1, ±e2) closest to image up.
+def _height_axis(cov: np.ndarray, min_elongation: float) -> np.ndarray:
+    """Unit 'up' vector: the principal direction (of the four ±e1, ±e2) of the pixel
+    coordinates' (2, 2) covariance ``cov`` closest to image up.
 
     Taking the closest of both axes, not always the major one, keeps a blob that is wider than
     tall (a person half inside the frame, two people side by side) upright instead of turning it
     by 90 degrees. A mask too round for PCA to give a direction (sqrt(l1/l2) below
     ``min_elongation``, a single pixel) keeps image up.
     """
-    if len(pts) < 2:
-        return _IMAGE_UP.copy()
-    rel = pts - pts.mean(axis=0)
-    cov = rel.T @ rel / (len(pts) - 1)  # np.cov, without its 40 us of overhead per call
     evals, evecs = np.linalg.eigh(cov)  # ascending
     major, minor = float(evals[1]), float(evals[0])
     if major <= 0.0 or major < min_elongation**2 * max(minor, 0.0):
@@ -104,24 +101,37 @@ def feet_pca(
     mask:       (H, W) bool, the target's pixels (the whole frame, or a crop)
     offset_xy:  image coordinates [x, y] of the crop's pixel (0, 0)
     Returns :class:`Feet` in image pixels. Raises ValueError on an empty mask.
+
+    The pixels' mean and covariance come from the mask's image moments, and the upright box
+    from its outline (a linear function of position is extreme over a set of pixels on the
+    set's outer boundary): the same as from every pixel's coordinates, without listing them
+    (a third of the time per target).
     """
     cfg = cfg or FeetConfig()
-    mask = np.asarray(mask, bool)
-    pts = _mask_points(mask, offset_xy)
-    up = _height_axis(pts, cfg.min_elongation)
+    mask = np.ascontiguousarray(mask, bool)
+    if mask.ndim != 2:
+        raise ValueError(f"feet: mask must be (H, W), got shape {mask.shape}")
+    mask8 = mask.view(np.uint8)
+    m = cv2.moments(mask8, binaryImage=True)
+    n = m["m00"]
+    if n == 0:
+        raise ValueError("feet: the mask is empty")
+    centre = np.array([m["m10"] / n, m["m01"] / n]) + np.asarray(offset_xy, np.float64)
+    if n < 2:
+        up = _IMAGE_UP.copy()
+    else:  # np.cov of the pixel coordinates
+        up = _height_axis(np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / (n - 1),
+                          cfg.min_elongation)
     down = -up
     right = np.array([down[1], -down[0]])  # (right, down) is a right-handed image frame
-    centre = pts.mean(axis=0)
-    rel = pts - centre
-    u, v = rel @ right, rel @ down
-    u0, u1 = u.min() - _HALF_PX, u.max() + _HALF_PX
-    v0, v1 = v.min() - _HALF_PX, v.max() + _HALF_PX
-    corners_uv = np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
 
-    contours, _ = cv2.findContours(mask.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    contours, _ = cv2.findContours(mask8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
     outline = np.concatenate([c.reshape(-1, 2) for c in contours]).astype(np.float64)
     outline = outline + np.asarray(offset_xy, np.float64) - centre
     outline_uv = np.stack([outline @ right, outline @ down], axis=1)
+    u0, v0 = outline_uv.min(axis=0) - _HALF_PX
+    u1, v1 = outline_uv.max(axis=0) + _HALF_PX
+    corners_uv = np.array([[u0, v0], [u1, v0], [u1, v1], [u0, v1]])
     picks = []
     for corner in (corners_uv[3], corners_uv[2]):  # bottom-left, bottom-right
         d2 = ((outline_uv - corner) ** 2).sum(axis=1)
