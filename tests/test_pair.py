@@ -394,12 +394,24 @@ def test_a_strong_hypothesis_found_as_a_held_swap_times_out_is_taken_over_the_sw
                     swapped, since=0)
     state = replace(state, hypotheses=(swap,))
     made: list[tuple[int, int]] = []
+    rounds = {}
     for f in range(1, 76):
         a, b = _walkers_seen_twice(f, [4, 5, 6, 7] if f > 60 else [])
         state, res = pair_step(state, a, b, cfg, f)
         made += [(x, y) for x, y, ev in res.associations if ev.kind == "comotion"]
+        if res.bootstrap is not None:
+            rounds[f] = res.bootstrap
     assert sorted(made) == [(4, 104), (5, 105), (6, 106), (7, 107)]
     assert state.markers.cells and all(m.a_label >= 4 for m in state.markers.cells.values())
+    # the round as the viewer tells it: every A walker with every B walker on marker frames
+    # 65, 70 and 75 (16 target pairs, 3 candidates each); the swap timed out, four pairs were
+    # found and accepted
+    true_links = ((4, 104), (5, 105), (6, 106), (7, 107))
+    assert sorted(rounds) == [75]  # fewer than four candidates pooled before (no round)
+    r = rounds[75]
+    assert (r.candidates, r.target_pairs, r.supported_pairs, r.needed_pairs) == (48, 16, 16, 3)
+    assert r.verdicts == ((swap.links, "unrefuted"),)
+    assert r.found == true_links and r.accepted == true_links
 
 
 def test_of_rivals_left_unrefuted_the_best_supported_is_accepted() -> None:

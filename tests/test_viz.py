@@ -614,3 +614,32 @@ def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:
                     "cam0: group cut into t8, t1 (left to right)",
                     "cam0: t5 hidden (given a sliver of a merged blob for several frames)",
                     "cam0: retired t5, t6"]
+
+
+def test_the_event_log_tells_the_co_motion_rounds_of_a_pair_without_a_homography() -> None:
+    """While a pair has no homography, each co-motion round that differs from the last is one
+    line: what was pooled, the held hypotheses' verdicts, what the search found and what was
+    accepted. A pair waiting for people to walk by logs nothing new until someone does."""
+    import dataclasses
+    from types import SimpleNamespace
+
+    from mvtrack.stages.pair import BootstrapRound
+    from mvtrack.viz.pairs import _log_bootstrap
+    from mvtrack.viz.sink import RerunSink
+
+    told: list[str] = []
+    sink = SimpleNamespace(event=lambda msg, level=None: told.append(msg), _last_keys={})
+    sink.event_changed = lambda *a: RerunSink.event_changed(sink, *a)  # type: ignore[arg-type]
+    waiting = BootstrapRound(25, 40, 6, 2, 3)
+    swap = ((1, 102), (2, 101))
+    found = ((4, 104), (5, 105), (6, 106))
+    rounds = [waiting, dataclasses.replace(waiting, frame=50), BootstrapRound(75, 52, 8, 5, 3,
+              verdicts=((swap, "unrefuted"),), found=found, accepted=found)]
+    for r in rounds:
+        _log_bootstrap(sink, ("cam0", "cam1"), SimpleNamespace(bootstrap=r))  # type: ignore[arg-type]
+    assert told == [
+        "pair cam0-cam1: co-motion round: 40 candidates of 6 target pairs, 2 with enough to "
+        "follow a homography; no homography that 3 of them follow",
+        "pair cam0-cam1: co-motion round: 52 candidates of 8 target pairs, 5 with enough to "
+        "follow a homography; held [t1 ↔ t102, t2 ↔ t101] unrefuted; search found "
+        "[t4 ↔ t104, t5 ↔ t105, t6 ↔ t106]; accepted [t4 ↔ t104, t5 ↔ t105, t6 ↔ t106]"]

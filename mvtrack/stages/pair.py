@@ -53,6 +53,7 @@ from mvtrack.stages.matcher import transfer_costs
 from mvtrack.stages.targets import SIDES, CameraTargets
 
 __all__ = [
+    "BootstrapRound",
     "PairConfigs",
     "PairLinks",
     "PairPrior",
@@ -187,6 +188,39 @@ class PairState:
     checks_anywhere: tuple[Check, ...] = ()
 
 
+Links = tuple[tuple[int, int], ...]
+"""(A label, B label) target pairs a co-motion hypothesis links."""
+
+
+@dataclass(frozen=True)
+class BootstrapRound:
+    """One co-motion bootstrap round (every ``comotion_every_frames`` frames while the pair has
+    no valid homography): what the viewer tells of why the pair has none yet.
+
+    candidates:    candidate correspondences pooled;  target_pairs: distinct (A label,
+                   B label) pairs among them;  supported_pairs: those with at least
+                   ``comotion_min_support`` candidates;  needed_pairs: how many of those a
+                   hypothesis needs (``comotion_min_pairs``)
+    verdicts:      each held hypothesis's links and this round's verdict on it
+                   (:func:`~mvtrack.stages.markers.comotion_confirm`: "confirmed", "rejected",
+                   "unrefuted" or "waiting"), in the order they were checked (the first
+                   confirmed one ends the round)
+    found:         the links of the new search's hypothesis; None when no hypothesis is
+                   followed by ``comotion_min_pairs`` target pairs, or no search ran
+    accepted:      the links of the hypothesis accepted this round (its candidates become
+                   markers), or None
+    """
+
+    frame: int
+    candidates: int
+    target_pairs: int
+    supported_pairs: int
+    needed_pairs: int
+    verdicts: tuple[tuple[Links, str], ...] = ()
+    found: Links | None = None
+    accepted: Links | None = None
+
+
 @dataclass(frozen=True)
 class PairResult:
     """Every intermediate of one pair step, for the viewer.
@@ -198,6 +232,7 @@ class PairResult:
     links:         all (A label, B label) links after this frame
     markers:       marker dropping this frame (new markers, rejections, the whole store)
     homography:    current estimate (valid) or failure;  attempt: this frame's fit, if any
+    bootstrap:     this frame's co-motion bootstrap round, if one ran
     """
 
     frame: int
@@ -209,6 +244,7 @@ class PairResult:
     markers: MarkerResult
     homography: HomographyEstimate | HomographyFailure
     attempt: HomographyEstimate | HomographyFailure | None
+    bootstrap: BootstrapRound | None = None
 
 
 @dataclass(frozen=True)
@@ -448,7 +484,7 @@ def _bootstrap(
     cfg: PairConfigs,
     frame: int,
 ) -> tuple[Candidates, tuple[Comotion, ...], PairLinks, MarkerState,
-           list[tuple[int, int, FovEvent]]]:
+           list[tuple[int, int, FovEvent]], BootstrapRound | None]:
     """Co-motion bootstrap while no homography is valid (see :class:`MarkerConfig`).
 
     Pools candidate pairs (leaving out targets much shorter than their recent heights,
@@ -465,11 +501,11 @@ def _bootstrap(
     hypotheses are then emptied. The pool is kept, and keeps pooling while H is valid: if
     verification drops that H, its links are refuted (they leave the pool) and the next round
     searches the rest at once, instead of waiting for new people to walk by.
-    Returns (pool, held hypotheses, links, markers, associations made).
+    Returns (pool, held hypotheses, links, markers, associations made, this frame's round).
     """
     mcfg = cfg.markers
     if mcfg.comotion_min_pairs == 0:
-        return Candidates.empty(), (), links, state.markers, []
+        return Candidates.empty(), (), links, state.markers, [], None
     a, b = cams
     # a blob that lost its legs has its feet off: it fits no H (only marker frames pool)
     if mcfg.comotion_height_test and frame % mcfg.marker_every_frames == 0:
@@ -477,12 +513,12 @@ def _bootstrap(
         b = b.subset(not_shrunk(state.markers.heights_b, b, mcfg))
     pool = candidates_add(state.candidates, a, b, mcfg, frame, state.refuted)
     if state.homography:
-        return pool, (), links, state.markers, []
+        return pool, (), links, state.markers, [], None
     if frame % mcfg.comotion_every_frames or len(pool) < 4:
-        return pool, state.hypotheses, links, state.markers, []
-    accepted, held = _review(pool, state.hypotheses, cfg, frame)
+        return pool, state.hypotheses, links, state.markers, [], None
+    accepted, held, round_ = _review(pool, state.hypotheses, cfg, frame)
     if accepted is None:
-        return pool, tuple(held), links, state.markers, []
+        return pool, tuple(held), links, state.markers, [], round_
     present = (set(cams[0].labels.tolist()), set(cams[1].labels.tolist()))
     made = []
     for a_label, b_label in accepted.links:  # stronger evidence than one FOV event: replaces
@@ -490,38 +526,51 @@ def _bootstrap(
             links = links.add(a_label, b_label, frame)
             made.append((a_label, b_label, FovEvent(frame, state.names[1], b_label, "none",
                                                     "comotion")))
-    return pool, (), links, markers_add(state.markers, accepted.markers, mcfg), made
+    return pool, (), links, markers_add(state.markers, accepted.markers, mcfg), made, round_
 
 
 def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs,
-            frame: int) -> tuple[Comotion | None, list[Comotion]]:
+            frame: int) -> tuple[Comotion | None, list[Comotion], BootstrapRound]:
     """One bootstrap round: the first held hypothesis the pool confirms, else a new search's
     if it is strong enough to need no held-out check (:func:`_strong`), else the
     best-supported (most inlier candidates) of those left unrefuted long enough, else none
     (the new search's hypothesis is held). A hypothesis that only timed out is weaker
     evidence than one that four target pairs follow now: generated 'pair' seed 0 held a swap
     of its first two people from frame 50, which timed out in the round that first found the
-    true pairing of four. Returns (accepted or None, hypotheses still held)."""
+    true pairing of four. Returns (accepted or None, hypotheses still held, the round)."""
     mcfg = cfg.markers
     held: list[Comotion] = []
     unrefuted: list[Comotion] = []
+    _, per_pair = np.unique(pool.labels, axis=0, return_counts=True)
+    round_ = BootstrapRound(frame, len(pool), len(per_pair),
+                            int((per_pair >= mcfg.comotion_min_support).sum()),
+                            mcfg.comotion_min_pairs)
+    verdicts: list[tuple[Links, str]] = []
+
+    def decided(accepted: Comotion | None, found: Comotion | None = None) -> tuple[
+            Comotion | None, list[Comotion], BootstrapRound]:
+        return accepted, held, replace(
+            round_, verdicts=tuple(verdicts), found=None if found is None else found.links,
+            accepted=None if accepted is None else accepted.links)
+
     for hypothesis in hypotheses:
         verdict, checked = comotion_confirm(pool, hypothesis, mcfg, solve_homography,
                                              transfer_errors, frame)
+        verdicts.append((hypothesis.links, verdict))
         if verdict == "confirmed":
-            return checked, held
+            return decided(checked)
         if checked is not None:
             (unrefuted if verdict == "unrefuted" else held).append(checked)
     rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
     found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
     strong = found is not None and _strong(found, mcfg)
     if unrefuted and not strong:  # rivals from the same people: more support pairs better
-        return max(unrefuted, key=lambda h: len(h.markers)), held
+        return decided(max(unrefuted, key=lambda h: len(h.markers)), found)
     if found is None or mcfg.comotion_confirm_pairs == 0 or strong:
-        return found, held
+        return decided(found, found)
     if all(set(found.links) != set(h.links) for h in held):
         held = [*held, found][-_MAX_HYPOTHESES:]
-    return None, held
+    return decided(None, found)
 
 
 def _strong(found: Comotion, cfg: MarkerConfig) -> bool:
@@ -702,7 +751,8 @@ def pair_step(
     base = state.links if links is None else PairLinks.of(links, state.links, frame)
     base = base.prune(set(a.labels.tolist()), set(b.labels.tolist()))
     new_links, made = _associate(events, learned, changed, base, cams, cfg.fov)
-    pool, held, new_links, boot_markers, boot = _bootstrap(state, cams, new_links, cfg, frame)
+    pool, held, new_links, boot_markers, boot, round_ = _bootstrap(state, cams, new_links, cfg,
+                                                                  frame)
     made += boot
     learned = replace(learned, markers=boot_markers, candidates=pool, hypotheses=held)
     made_now = {(x, y) for x, y, _ in made}
@@ -761,6 +811,7 @@ def pair_step(
         markers=marker_result,
         homography=homography,
         attempt=attempt,
+        bootstrap=round_,
     )
     return new_state, result
 

@@ -83,8 +83,9 @@ def _log_events(sink: RerunSink, name: str, pr: Any, result: FrameResult) -> Non
         rec.log(paths.camera_layer(cam, "fov_events"), rr.Points2D(
             to_viewer(np.array(feet)), colors=(255, 255, 255), radii=6.0, draw_order=10.5))
     for a_label, b_label, ev in pr.associations:
-        sink.event(f"pair {name}: linked t{a_label} ↔ t{b_label} at a {ev.side} event of "
-                   f"{ev.camera}")
+        how = ("by co-motion (the bootstrap round)" if ev.kind == "comotion"
+               else f"at a {ev.side} event of {ev.camera}")
+        sink.event(f"pair {name}: linked t{a_label} ↔ t{b_label} {how}")
 
 
 def _log_links(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
@@ -269,6 +270,41 @@ def _transfer_error(sink: RerunSink, key: tuple[str, str], H: np.ndarray, index:
     sink.rec.log(paths.transfer_error(a, b), rr.Scalars(float(np.median(err))))
 
 
+def _links_text(links: Sequence[tuple[int, int]]) -> str:
+    return ", ".join(f"t{a} ↔ t{b}" for a, b in links)
+
+
+def bootstrap_text(name: str, round_: Any) -> str:
+    """One line telling a co-motion bootstrap round (:class:`BootstrapRound`): what was pooled,
+    what became of each held hypothesis, what the new search found and what was accepted.
+    A link reads "t<A label> ↔ t<B label>", as the pair's other links."""
+    text = (f"pair {name}: co-motion round: {round_.candidates} candidates of "
+            f"{round_.target_pairs} target pairs, {round_.supported_pairs} with enough to "
+            f"follow a homography")
+    for links, verdict in round_.verdicts:
+        text += f"; held [{_links_text(links)}] {verdict}"
+    if round_.found is not None:
+        text += f"; search found [{_links_text(round_.found)}]"
+    elif not round_.verdicts or round_.verdicts[-1][1] != "confirmed":
+        text += f"; no homography that {round_.needed_pairs} of them follow"
+    if round_.accepted is not None:
+        text += f"; accepted [{_links_text(round_.accepted)}]"
+    return text
+
+
+def _log_bootstrap(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
+    round_ = pr.bootstrap
+    if round_ is None:
+        return
+    # a round like the last one (nobody new pooled, nothing held, found or accepted) is not
+    # told again: a pair that waits for people logs a line when something changes. INFO, as
+    # the viewer hides DEBUG: these lines are why a pair has no homography yet
+    same = (round_.candidates, round_.target_pairs, round_.verdicts, round_.found,
+            round_.accepted)
+    sink.event_changed(f"bootstrap {paths.pair_name(*key)}", repr(same).encode(),
+                       bootstrap_text(paths.pair_name(*key), round_))
+
+
 def log_pair(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult) -> None:
     """Every layer of pair ``key`` = (A, B) at this frame."""
     name = paths.pair_name(*key)
@@ -276,4 +312,5 @@ def log_pair(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult
     _log_links(sink, key, pr)
     _log_lines(sink, key, pr, result)
     _log_markers(sink, key, pr)
+    _log_bootstrap(sink, key, pr)
     _log_homography(sink, key, pr, result)

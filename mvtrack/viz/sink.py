@@ -263,6 +263,14 @@ class RerunSink:
         """One line in the event log at the current time (the last logged frame)."""
         self.rec.log(paths.EVENTS, rr.TextLog(message, level=level))
 
+    def event_changed(self, topic: str, key: bytes, message: str,
+                      level: Any = rr.TextLogLevel.INFO) -> None:
+        """:meth:`event`, unless the last event of ``topic`` had the same ``key``."""
+        if self._last_keys.get(f"event:{topic}") == key:
+            return
+        self._last_keys[f"event:{topic}"] = key
+        self.event(message, level)
+
     # ----------------------------------------------------------------------------- frames
 
     def on_frame(self, result: FrameResult) -> None:
