@@ -255,6 +255,36 @@ def _box_labels(rrd: Path, cam: str, layer: str = "resolved") -> dict[int, list[
     return _column(rrd, paths.camera_layer(cam, layer), "Boxes2D:labels")
 
 
+def test_marker_tests_failed_are_counted_per_pair(
+        pair_recording: tuple[dict[str, Any], Any, Path, Path]) -> None:
+    """The pair's 'marker tests failed' series: on every marker frame, how many links have
+    failed each of SPEC §5's tests so far, the totals the pair stage's rejections add up to."""
+    from collections import Counter
+
+    from mvtrack.pipeline import run
+
+    _, _, clip, rrd = pair_recording
+    failed: Counter[str] = Counter()
+    expected: dict[str, dict[int, float]] = {t: {} for t in paths.MARKER_TESTS}
+
+    class Count:
+        def on_frame(self, result: Any) -> None:
+            markers = result.pairs[("cam0", "cam1")].markers
+            if markers.tried:
+                failed.update(reason.replace(" ", "_") for *_, reason in markers.rejected)
+                for test in paths.MARKER_TESTS:
+                    expected[test][result.index] = float(failed[test])
+
+    with open_clip(clip) as opened:
+        run(opened, _params(), range(100), [Count()])
+    every = _params().markers.marker_every_frames
+    assert sum(failed.values()) > 0
+    for test in paths.MARKER_TESTS:
+        shown = _column(rrd, paths.marker_rejections("cam0", "cam1", test), "Scalars:scalars")
+        assert set(shown) == set(range(0, 100, every))
+        assert {f: v[0] for f, v in shown.items()} == expected[test]
+
+
 def test_resolved_layer_shows_what_mvtrack_track_writes(
         pair_recording: tuple[dict[str, Any], Any, Path, Path], tmp_path: Path) -> None:
     """The viewer's whole-run layer marks exactly the rows whose meta `mvtrack track` changed

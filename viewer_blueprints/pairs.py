@@ -23,6 +23,8 @@ def _pair_tab(a: str, b: str) -> rrb.Container:
         rrb.TimeSeriesView(origin=paths.pair(a, b), name="markers, links, quality (px)",
                            contents=[paths.pair_layer(a, b, layer) for layer in
                                      paths.PAIR_LAYERS]),
+        rrb.TimeSeriesView(origin=paths.marker_rejections(a, b),
+                           name="marker tests failed (links, so far)"),
         rrb.TimeSeriesView(origin=f"{paths.METRICS}/transfer_error_px", name="transfer error"),
         rrb.TextDocumentView(origin=paths.pair_costs(a, b), name="association costs"),
     )

@@ -6,6 +6,7 @@ reads its documented fields) and logs through a :class:`~mvtrack.viz.sink.RerunS
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Mapping, Sequence
 from functools import partial
 from typing import TYPE_CHECKING, Any
@@ -207,6 +208,11 @@ def _log_markers(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
                          partial(rr.Points2D, to_viewer(pts), colors=(255, 0, 255), radii=2.0,
                                  draw_order=7.0))
     sink.rec.log(paths.pair_layer(a, b, "markers"), rr.Scalars(float(len(markers))))
+    if pr.markers.tried:  # why links gave no marker, so far (which test to look at)
+        failed = sink.marker_rejections.setdefault(key, Counter())
+        failed.update(reason.replace(" ", "_") for _, _, reason in pr.markers.rejected)
+        for test in paths.MARKER_TESTS:
+            sink.rec.log(paths.marker_rejections(a, b, test), rr.Scalars(float(failed[test])))
 
 
 def _log_homography(sink: RerunSink, key: tuple[str, str], pr: Any, result: FrameResult) -> None:

@@ -56,6 +56,9 @@ Per overlapping pair ``a-b`` (names in the clip's overlap order)::
     /pairs/{a}-{b}/quality_px       Scalars: median symmetric transfer error of the markers
     /pairs/{a}-{b}/markers          Scalars: markers in the store
     /pairs/{a}-{b}/links            Scalars: linked target pairs (FOV associations alive)
+    /pairs/{a}-{b}/markers_rejected/{test}  Scalars: links whose marker failed ``test``
+                                    (outside, height, no_motion: SPEC §5's tests a, b, c) so
+                                    far, logged on marker frames
     /pairs/{a}-{b}/costs            TextDocument: the matcher's cost matrix (symmetric transfer
                                     distance in body heights, A targets x B targets)
 
@@ -192,6 +195,18 @@ def pair_layer(a: str, b: str, layer: str) -> str:
     if layer not in PAIR_LAYERS:
         raise ValueError(f"unknown pair layer {layer!r}")
     return f"{pair(a, b)}/{layer}"
+
+
+MARKER_TESTS = ("outside", "height", "no_motion")
+"""Marker tests as :func:`marker_rejections` names them (the stage's reasons, "no motion"
+written with an underscore)."""
+
+
+def marker_rejections(a: str, b: str, test: str = "") -> str:
+    """``/pairs/{a}-{b}/markers_rejected``, or its ``/{test}`` series (:data:`MARKER_TESTS`)."""
+    if test and test not in MARKER_TESTS:
+        raise ValueError(f"unknown marker test {test!r}")
+    return f"{pair(a, b)}/markers_rejected" + (f"/{test}" if test else "")
 
 
 def pair_costs(a: str, b: str) -> str:

@@ -35,6 +35,7 @@ from __future__ import annotations
 import dataclasses
 import time
 import uuid
+from collections import Counter
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -189,6 +190,7 @@ class RerunSink:
         self.fov_event_cameras: set[str] = set()  # cameras with FOV events drawn this frame
         self._trails: dict[int, list[np.ndarray]] = {}  # meta -> recent ground points
         self.conflicts_told: set[tuple[Any, Any]] = set()  # rejected links in the event log
+        self.marker_rejections: dict[tuple[str, str], Counter[str]] = {}  # per pair, per test
         self._truth_rows = self._index_truth(truth)
         self._ground_from_ref = _ground_from(spec, truth)
         self._seen_box: tuple[np.ndarray, np.ndarray] | None = None  # ground map extent so far
