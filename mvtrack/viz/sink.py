@@ -215,10 +215,17 @@ class RerunSink:
             rec.log(paths.targets_metric(cam.name), style, static=True)
             rec.log(paths.foot_error(cam.name), style, static=True)
         for i, (a, b) in enumerate(self.spec.overlaps):  # the series exist before any H
-            style = rr.SeriesLines(colors=camera_color(i), names=paths.pair_name(a, b),
-                                   widths=2.0)
-            rec.log(paths.transfer_error(a, b), style, static=True)
-            rec.log(paths.pair_layer(a, b, "quality_px"), style, static=True)
+            name = paths.pair_name(a, b)
+            rec.log(paths.transfer_error(a, b),
+                    rr.SeriesLines(colors=camera_color(i), names=name, widths=2.0), static=True)
+            # beside the pair's markers and links (pairs layout): named for what it is
+            rec.log(paths.pair_layer(a, b, "quality_px"),
+                    rr.SeriesLines(colors=camera_color(i), names=f"quality (px), {name}",
+                                   widths=2.0), static=True)
+            rec.log(paths.pair_layer(a, b, "markers"),  # magenta, as the marker dots
+                    rr.SeriesLines(colors=(255, 0, 255), names="markers"), static=True)
+            rec.log(paths.pair_layer(a, b, "links"),
+                    rr.SeriesLines(colors=(255, 255, 255), names="links"), static=True)
         self._grow_metas(64)
         for warning in self.spec.warnings:
             self.warn(warning)
