@@ -689,7 +689,13 @@ class MarkerConfig(_Checked):
     # 'three' s7 gains (0.831 -> 0.969), s6 loses (0.859 -> 0.784). Two-pair hypotheses
     # accepted only when a third pair confirms them (never unrefuted) changed none of 'three'
     # s0/2/6/7/10. Truth feet of s6's two people with 2 px noise fit an H 5-15 px off at the
-    # median: two people walking by constrain H loosely.
+    # median: two people walking by constrain H loosely. A second search for two pairs whose
+    # targets look alike (tracker colour histograms within Bhattacharyya 0.55 in both
+    # cameras), when the 3-pair search finds nothing and nothing is held: seeds 0-2 IDF1
+    # unchanged, online +0.010, 'three' s0 H p90 22.9 -> 12.4 px; seeds 3-11 IDF1 0.9471 ->
+    # 0.9439: 'three' s6/s10 +0.038/+0.057, but 'pillar' s6 0.913 -> 0.689 and s8 0.941 ->
+    # 0.853 (two people walking together: confirmed by their own newer candidates, a loose
+    # H accepted). Untried: such an H used offline only, for pairs that end with no H.
     comotion_min_pairs: int = param(
         3, "bootstrap: distinct one-to-one target pairs that must follow the hypothesis (0 = off)",
         0, 100,
