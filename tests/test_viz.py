@@ -271,7 +271,7 @@ def test_marker_tests_failed_are_counted_per_pair(
         def on_frame(self, result: Any) -> None:
             markers = result.pairs[("cam0", "cam1")].markers
             if markers.tried:
-                failed.update(reason.replace(" ", "_") for *_, reason in markers.rejected)
+                failed.update(reason for *_, reason in markers.rejected)
                 for test in paths.MARKER_TESTS:
                     expected[test][result.index] = float(failed[test])
 

@@ -546,31 +546,29 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
                             int((per_pair >= mcfg.comotion_min_support).sum()),
                             mcfg.comotion_min_pairs)
     verdicts: list[tuple[Links, str]] = []
-
-    def decided(accepted: Comotion | None, found: Comotion | None = None) -> tuple[
-            Comotion | None, list[Comotion], BootstrapRound]:
-        return accepted, held, replace(
-            round_, verdicts=tuple(verdicts), found=None if found is None else found.links,
-            accepted=None if accepted is None else accepted.links)
-
+    accepted = found = None
     for hypothesis in hypotheses:
         verdict, checked = comotion_confirm(pool, hypothesis, mcfg, solve_homography,
                                              transfer_errors, frame)
         verdicts.append((hypothesis.links, verdict))
         if verdict == "confirmed":
-            return decided(checked)
+            accepted = checked
+            break
         if checked is not None:
             (unrefuted if verdict == "unrefuted" else held).append(checked)
-    rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
-    found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
-    strong = found is not None and _strong(found, mcfg)
-    if unrefuted and not strong:  # rivals from the same people: more support pairs better
-        return decided(max(unrefuted, key=lambda h: len(h.markers)), found)
-    if found is None or mcfg.comotion_confirm_pairs == 0 or strong:
-        return decided(found, found)
-    if all(set(found.links) != set(h.links) for h in held):
-        held = [*held, found][-_MAX_HYPOTHESES:]
-    return decided(None, found)
+    else:
+        rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
+        found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
+        strong = found is not None and _strong(found, mcfg)
+        if unrefuted and not strong:  # rivals from the same people: more support pairs better
+            accepted = max(unrefuted, key=lambda h: len(h.markers))
+        elif found is None or mcfg.comotion_confirm_pairs == 0 or strong:
+            accepted = found
+        elif all(set(found.links) != set(h.links) for h in held):
+            held = [*held, found][-_MAX_HYPOTHESES:]
+    return accepted, held, replace(
+        round_, verdicts=tuple(verdicts), found=None if found is None else found.links,
+        accepted=None if accepted is None else accepted.links)
 
 
 def _strong(found: Comotion, cfg: MarkerConfig) -> bool:

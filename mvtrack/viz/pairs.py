@@ -210,7 +210,7 @@ def _log_markers(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
     sink.rec.log(paths.pair_layer(a, b, "markers"), rr.Scalars(float(len(markers))))
     if pr.markers.tried:  # why links gave no marker, so far (which test to look at)
         failed = sink.marker_rejections.setdefault(key, Counter())
-        failed.update(reason.replace(" ", "_") for _, _, reason in pr.markers.rejected)
+        failed.update(reason for _, _, reason in pr.markers.rejected)
         for test in paths.MARKER_TESTS:
             sink.rec.log(paths.marker_rejections(a, b, test), rr.Scalars(float(failed[test])))
 

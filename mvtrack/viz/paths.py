@@ -197,16 +197,16 @@ def pair_layer(a: str, b: str, layer: str) -> str:
     return f"{pair(a, b)}/{layer}"
 
 
-MARKER_TESTS = ("outside", "height", "no_motion")
-"""Marker tests as :func:`marker_rejections` names them (the stage's reasons, "no motion"
-written with an underscore)."""
+MARKER_TESTS = ("outside", "height", "no motion")
+"""The marker tests, as the pair stage's ``MarkerResult.rejected`` names the one a link failed."""
 
 
 def marker_rejections(a: str, b: str, test: str = "") -> str:
-    """``/pairs/{a}-{b}/markers_rejected``, or its ``/{test}`` series (:data:`MARKER_TESTS`)."""
+    """``/pairs/{a}-{b}/markers_rejected``, or the series of one of :data:`MARKER_TESTS`
+    (spaces written as underscores: ``.../no_motion``)."""
     if test and test not in MARKER_TESTS:
         raise ValueError(f"unknown marker test {test!r}")
-    return f"{pair(a, b)}/markers_rejected" + (f"/{test}" if test else "")
+    return f"{pair(a, b)}/markers_rejected" + (f"/{test.replace(' ', '_')}" if test else "")
 
 
 def pair_costs(a: str, b: str) -> str:
