@@ -1034,6 +1034,31 @@ class ResolveConfig(_Checked):
         "pair's final H (the online labels go to tracks_online.csv); 'online': the labels as "
         "assigned frame by frame, as the viewer shows them",
     )
+    # A pair can end a run with no homography though its co-motion bootstrap found the true
+    # pairing: generated 'three' seeds 7 and 10 (cam1-cam2 sees a few people, one after the
+    # other) found their three true target pairs at frame 575 of 600, too late for the
+    # held-out check, and kept cross-camera consistency 0.50 / 0.63 from FOV links alone.
+    # The same search over the whole run's candidates, unbounded (pooled as the bootstrap
+    # pools them, markers.comotion_*), gives the resolution an H for such pairs. On the 108
+    # pairs of the 96 generated sweep clips (seeds 0-11) it finds one for all but 'three' s6
+    # cam1-cam2 (two true pairs only), never one off by more than 45 px at p90 against the
+    # true H (s7 / s10 cam1-cam2: 5.1 / 6.6 px median, 12.0 / 12.2 p90); pairs with an H
+    # of their own keep it.
+    comotion_without_h: bool = param(
+        True, "a pair that ended the run without a homography gets one for the whole-run "
+        "labels from a co-motion search over the run's candidates (pairs.json 'H_whole_run')",
+    )
+    # Without the held-out check a search of a small pool can be wrong. Searches of 200-frame
+    # windows of the same runs found 153 three-pair hypotheses, 9 of them wrong (median error
+    # over a body height): the share of targets such an H projects well inside the other
+    # camera that find a target there (homography.verify_gate_heights), over the whole run,
+    # is 0.39-0.58 for 6 of the 9, 0.54 and up for the right ones (pillar: occluded people),
+    # above 0.6 for 143 of 144, for 106 of the 107 whole-run ones, and 0.92-0.93 for 'three'
+    # s7 / s10 cam1-cam2.
+    comotion_min_found_share: float = param(
+        0.6, "...used only if this share of the targets it projects well inside the other "
+        "camera find a target there, over the run", 0.0, 1.0,
+    )
     # Looser than the matcher's gate: votes are counted over a target's whole life and need a
     # share of its frames, so a frame with the legs lost (0.5-1.0 heights) costs one vote.
     # Generated clips (600 f): 0.6 -> 1.0 raises doors consistency 0.88 -> 0.99 and pillar

@@ -22,7 +22,13 @@ from typing import Any, Protocol
 import numpy as np
 
 from mvtrack.io import CameraSpec, Clip, ClipSpec, Detections
-from mvtrack.io.results import LearnedPair, TrackRows, read_tracks, rewrite_tracks
+from mvtrack.io.results import (
+    LearnedPair,
+    TrackRows,
+    read_tracks,
+    rewrite_tracks,
+    write_pairs,
+)
 from mvtrack.params import Params
 from mvtrack.stages.background import (
     BackgroundResult,
@@ -41,6 +47,7 @@ from mvtrack.stages.blobtrack import (
 from mvtrack.stages.cues import Cue, CueInputs, camera_cues
 from mvtrack.stages.feet import Feet, smooth_feet, target_feet_records
 from mvtrack.stages.homography import HomographyEstimate
+from mvtrack.stages.markers import comotion_of_run
 from mvtrack.stages.matcher import MatchInputs, MatchResult, match_init, match_step
 from mvtrack.stages.meta import (
     Edge,
@@ -55,11 +62,18 @@ from mvtrack.stages.pair import (
     PairConfigs,
     PairPrior,
     PairResult,
+    found_share,
     pair_init,
     pair_step,
     pair_summary,
 )
-from mvtrack.stages.resolve import Resolution, Rows, resolve_labels
+from mvtrack.stages.resolve import (
+    Resolution,
+    Rows,
+    WholeRunH,
+    camera_frames,
+    resolve_labels,
+)
 from mvtrack.stages.targets import CameraTargets
 
 __all__ = [
@@ -327,11 +341,39 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
 def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
                  spec: ClipSpec) -> Resolution:
     """Whole-run labels (`stages/resolve.py`) of a run's target rows, with the pairs' final
-    homographies (`pairs.json` objects); the FOV-only matcher resolves without them."""
-    final = [(*p["cameras"], None if p["H"] is None else np.asarray(p["H"], np.float64))
-             for p in pairs]
-    return resolve_labels(rows, final, params.resolve, use_h=params.matcher.method != "fov",
-                          sizes={c.name: c.size for c in spec.cameras}, overlaps=spec.overlaps)
+    homographies (`pairs.json` objects); the FOV-only matcher resolves without them. A pair
+    without one gets the whole run's co-motion hypothesis, when there is one and
+    ``resolve.comotion_without_h`` (:func:`~mvtrack.stages.markers.comotion_of_run`; in the
+    resolution's ``comotion``)."""
+    use_h = params.matcher.method != "fov"
+    sizes = {c.name: c.size for c in spec.cameras}
+    final: list[tuple[str, str, np.ndarray | None]] = []
+    comotion: dict[tuple[str, str], WholeRunH | None] = {}
+    for p in pairs:
+        a, b = p["cameras"]
+        H = None if p["H"] is None else np.asarray(p["H"], np.float64)
+        if H is None and use_h and params.resolve.comotion_without_h:
+            found = comotion[a, b] = whole_run_h(list(camera_frames(rows, (a, b), sizes)), params)
+            if found is not None and found.used:
+                H = found.hypothesis.H_b_from_a
+        final.append((a, b, H))
+    res = resolve_labels(rows, final, params.resolve, use_h=use_h, sizes=sizes,
+                         overlaps=spec.overlaps)
+    return replace(res, comotion=comotion)
+
+
+def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]], params: Params
+                ) -> WholeRunH | None:
+    """The co-motion hypothesis of a pair's whole run (``run``: its frames as
+    :func:`~mvtrack.stages.resolve.camera_frames` gives them), used when enough of the
+    targets its H projects into the other camera find one there
+    (``resolve.comotion_min_found_share``); None when the search finds none."""
+    found = comotion_of_run(run, params.markers, params.homography.ransac_seed)
+    if found is None:
+        return None
+    share = found_share(found.H_b_from_a, run, params.homography)
+    return WholeRunH(found, share, share is not None
+                     and share >= params.resolve.comotion_min_found_share)
 
 
 def smoothed_feet(rows: TrackRows, params: Params, fps: float) -> np.ndarray:
@@ -378,13 +420,31 @@ def tracking_differences(a: Params, b: Params) -> list[str]:
 def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Params,
                    spec: ClipSpec) -> None:
     """Rewrite a finished results directory's `tracks.csv` and `cues.csv` with
-    :func:`finish_rows` (the streamed ones stay as `*_online.csv`); nothing to do with neither
-    smoothing nor whole-run labels."""
-    if params.feet.smooth_seconds == 0 and params.resolve.labels != "whole_run":
-        return
-    rows = read_tracks(Path(out_dir) / "tracks.csv")
-    final, res = finish_rows(rows, pairs, params, spec)
-    rewrite_tracks(out_dir, final, (lambda f, m: m) if res is None else res.cue_meta)
+    :func:`finish_rows` (the streamed ones stay as `*_online.csv`; nothing to do with neither
+    smoothing nor whole-run labels), and `pairs.json` with the homographies the whole-run
+    labels used for pairs without one (:func:`_with_whole_run_h`)."""
+    res = None
+    if params.feet.smooth_seconds > 0 or params.resolve.labels == "whole_run":
+        rows = read_tracks(Path(out_dir) / "tracks.csv")
+        final, res = finish_rows(rows, pairs, params, spec)
+        rewrite_tracks(out_dir, final, (lambda f, m: m) if res is None else res.cue_meta)
+    write_pairs(out_dir, [_with_whole_run_h(p, res) for p in pairs])
+
+
+def _with_whole_run_h(pair: dict[str, Any], res: Resolution | None) -> dict[str, Any]:
+    """A `pairs.json` object with ``H_whole_run`` as the resolution found it for a pair the
+    run learned no H for: null (no hypothesis), or ``{"H", "links" ([A label, B label]
+    pairs), "candidates" (its inliers), "found_share", "used"}``; absent where not searched."""
+    pair = {k: v for k, v in pair.items() if k != "H_whole_run"}
+    key = (pair["cameras"][0], pair["cameras"][1])
+    if res is None or key not in res.comotion:
+        return pair
+    found = res.comotion[key]
+    return pair | {"H_whole_run": None if found is None else {
+        "H": found.hypothesis.H_b_from_a.tolist(),
+        "links": [list(link) for link in found.hypothesis.links],
+        "candidates": len(found.hypothesis.markers), "found_share": found.found_share,
+        "used": found.used}}
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

@@ -26,6 +26,7 @@ import numpy as np
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
     "TrackRows", "read_cues", "read_pairs", "read_tracks", "restore_streamed", "rewrite_tracks",
+    "write_pairs",
 ]
 
 TRACKS_HEADER = (
@@ -84,7 +85,7 @@ class ResultsWriter:
         self._cues_file.close()
         (self.out_dir / "run.json").write_text(json.dumps(run_info, indent=2) + "\n")
         if pairs is not None:
-            (self.out_dir / "pairs.json").write_text(json.dumps(pairs, indent=2) + "\n")
+            write_pairs(self.out_dir, pairs)
 
 
 class RowsCollector:
@@ -147,6 +148,14 @@ def rewrite_tracks(out_dir: Path, rows: TrackRows,
     _replace(out_dir / "tracks.csv", TRACKS_HEADER, tracks)
     _replace(out_dir / "cues.csv", CUES_HEADER,
              [[f, m, c, *flags] for (f, m, c), flags in merged.items()])
+
+
+def write_pairs(out_dir: Path, pairs: list[dict[str, Any]]) -> None:
+    """Write `pairs.json` (beside any earlier one, then renamed over it)."""
+    path = Path(out_dir) / "pairs.json"
+    part = path.with_name(path.name + ".part")
+    part.write_text(json.dumps(pairs, indent=2) + "\n")
+    part.replace(path)
 
 
 def restore_streamed(out_dir: Path) -> None:

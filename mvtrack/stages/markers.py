@@ -15,7 +15,7 @@ and keeps spatial coverage.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -38,6 +38,7 @@ __all__ = [
     "candidates_add",
     "comotion_confirm",
     "comotion_draws",
+    "comotion_of_run",
     "comotion_search",
     "marker_groups",
     "marker_points",
@@ -299,8 +300,20 @@ def candidates_add(
 ) -> Candidates:
     """The pool with every (A, B) pair of fully-inside targets of this frame (bounded), but
     the (A label, B label) pairs in ``exclude``."""
-    if frame % cfg.marker_every_frames or not len(a) or not len(b):
+    new = _frame_candidates(a, b, cfg, frame, exclude)
+    if new is None:
         return pool
+    return _joined((pool, new), keep=cfg.comotion_pool_size)
+
+
+def _frame_candidates(
+    a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int,
+    exclude: frozenset[tuple[int, int]] = frozenset(),
+) -> Candidates | None:
+    """Every (A, B) pair of fully-inside targets of a marker frame but those in ``exclude``;
+    None on other frames or when there is none."""
+    if frame % cfg.marker_every_frames or not len(a) or not len(b):
+        return None
     ia = np.flatnonzero(_inside(a, cfg))
     ib = np.flatnonzero(_inside(b, cfg))
     ga, gb = (g.ravel() for g in np.meshgrid(ia, ib, indexing="ij"))
@@ -308,14 +321,20 @@ def candidates_add(
         ok = _not_in(exclude, a.labels[ga], b.labels[gb])
         ga, gb = ga[ok], gb[ok]
     if not len(ga):
-        return pool
-    keep = slice(-cfg.comotion_pool_size, None)
+        return None
+    return Candidates(np.full(len(ga), frame, np.int64), np.c_[a.labels[ga], b.labels[gb]],
+                      a.feet[ga], b.feet[gb], np.c_[a.heights_px[ga], b.heights_px[gb]])
+
+
+def _joined(parts: Sequence[Candidates], keep: int | None = None) -> Candidates:
+    """The candidates of ``parts`` in order (only the newest ``keep`` when given)."""
+    last = slice(None if keep is None else -keep, None)
     return Candidates(
-        np.r_[pool.frame, np.full(len(ga), frame)][keep],
-        np.r_[pool.labels, np.c_[a.labels[ga], b.labels[gb]]][keep].astype(np.int64),
-        np.r_[pool.x_a, a.feet[ga]][keep],
-        np.r_[pool.x_b, b.feet[gb]][keep],
-        np.r_[pool.heights, np.c_[a.heights_px[ga], b.heights_px[gb]]][keep],
+        np.concatenate([p.frame for p in parts])[last],
+        np.concatenate([p.labels for p in parts])[last].astype(np.int64),
+        np.concatenate([p.x_a for p in parts])[last],
+        np.concatenate([p.x_b for p in parts])[last],
+        np.concatenate([p.heights for p in parts])[last],
     )
 
 
@@ -541,6 +560,32 @@ def comotion_search(
     if len(chosen) < cfg.comotion_min_pairs:
         return None
     return _as_comotion(pool, H, chosen, rows, int(pool.frame.max()))
+
+
+def comotion_of_run(
+    run: Iterable[tuple[int, CameraTargets, CameraTargets]], cfg: MarkerConfig, seed: int
+) -> Comotion | None:
+    """:func:`comotion_search` over every candidate of a whole run [beyond]: ``run`` gives
+    (frame, A targets, B targets) for every frame in order; candidates are pooled as the
+    bootstrap pools them (marker frames, fully inside, no target shorter than its recent
+    median with ``comotion_height_test``) but the pool is not bounded. For pairs that end a
+    run without a homography (whole-run labels, `stages/resolve.py`): the bootstrap's
+    held-out check needs candidates after the search, and a run can end first (generated
+    'three' seeds 7 and 10 found their three true pairs at frame 575 of 600)."""
+    parts = [Candidates.empty()]
+    heights: tuple[dict[int, tuple[float, ...]], dict[int, tuple[float, ...]]] = ({}, {})
+    for frame, a, b in run:
+        if frame % cfg.marker_every_frames == 0:
+            tall = (a, b)
+            if cfg.comotion_height_test:
+                tall = (a.subset(not_shrunk(heights[0], a, cfg)),
+                        b.subset(not_shrunk(heights[1], b, cfg)))
+            new = _frame_candidates(*tall, cfg, frame)
+            parts += [] if new is None else [new]
+        heights = (_update_heights(heights[0], a, cfg.height_window_frames),
+                   _update_heights(heights[1], b, cfg.height_window_frames))
+    rng = np.random.default_rng([seed, 2])
+    return comotion_search(_joined(parts), cfg, solve_homography, transfer_errors, rng)
 
 
 def comotion_confirm(

@@ -16,7 +16,7 @@ Nothing here uses calibration or ground truth.
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
@@ -60,6 +60,7 @@ __all__ = [
     "PairResult",
     "PairState",
     "PendingEvent",
+    "found_share",
     "pair_init",
     "pair_step",
     "pair_summary",
@@ -634,6 +635,19 @@ def _check(H_b_from_a: np.ndarray, a: CameraTargets, b: CameraTargets,
                 tuple(zip(camera[missed].tolist(), labels[missed].tolist(), strict=True)))
 
     return tally(np.concatenate(marked)), tally(np.concatenate(anywhere))
+
+
+def found_share(H_b_from_a: np.ndarray,
+                run: Iterable[tuple[int, CameraTargets, CameraTargets]],
+                cfg: HomographyConfig) -> float | None:
+    """Over a run's frames ((frame, A targets, B targets)), the share of the targets that
+    ``H_b_from_a`` projects well inside the other camera (anywhere, :func:`_check`) that find
+    a target there within ``verify_gate_heights``; None when it projects none there."""
+    expected = found = 0
+    for _, a, b in run:
+        _, (e, f, _) = _check(H_b_from_a, a, b, cfg, (None, None))
+        expected, found = expected + e, found + f
+    return found / expected if expected else None
 
 
 def _missing(checks: tuple[Check, ...], min_frac: float, cfg: HomographyConfig) -> str:

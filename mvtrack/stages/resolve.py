@@ -56,19 +56,21 @@ the results give each target one meta for its whole life:
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Collection, Mapping, Sequence
-from dataclasses import dataclass
+from collections.abc import Collection, Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from itertools import combinations, pairwise
 from typing import Any, Protocol
 
 import numpy as np
 
 from mvtrack.params import ResolveConfig
+from mvtrack.stages.markers import Comotion
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
 from mvtrack.stages.meta import cameras_apart
-from mvtrack.stages.targets import exit_outward
+from mvtrack.stages.targets import CameraTargets, exit_outward
 
-__all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "resolve_labels"]
+__all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "WholeRunH", "camera_frames",
+           "resolve_labels"]
 
 Track = tuple[str, int]
 """(camera, camera-local target label): a target's whole life."""
@@ -127,6 +129,17 @@ class ResolvedLink:
 
 
 @dataclass(frozen=True)
+class WholeRunH:
+    """A co-motion hypothesis found over a whole run for a pair without a final H, the share
+    of its projections that found a target (:func:`~mvtrack.stages.pair.found_share`) and
+    whether the votes used its H."""
+
+    hypothesis: Comotion
+    found_share: float | None
+    used: bool
+
+
+@dataclass(frozen=True)
 class Resolution:
     """The resolved meta of every row, and the links that decided it."""
 
@@ -134,6 +147,9 @@ class Resolution:
     links: tuple[ResolvedLink, ...]
     online_to_resolved: dict[tuple[int, int], int]  # (frame, online meta) -> resolved meta
     switches: tuple[Switch, ...] = ()  # targets cut where they changed person
+    # pairs the run learned no H for, when searched (`pipeline.resolve_rows`): the whole
+    # run's co-motion hypothesis (None: none found; the run's own links decide)
+    comotion: Mapping[tuple[str, str], WholeRunH | None] = field(default_factory=dict)
 
     def cue_meta(self, frames: np.ndarray, metas: np.ndarray) -> np.ndarray:
         """Resolved metas for (frame, online meta) pairs; a meta with no target in that frame
@@ -152,6 +168,26 @@ def _frames(rows: Rows) -> list[np.ndarray]:
     order = np.argsort(rows.frame, kind="stable")
     frames = rows.frame[order]
     return np.split(order, np.flatnonzero(frames[1:] != frames[:-1]) + 1) if len(order) else []
+
+
+def camera_frames(rows: Rows, names: tuple[str, str], sizes: Mapping[str, tuple[int, int]]
+                  ) -> Iterator[tuple[int, CameraTargets, CameraTargets]]:
+    """(frame, A targets, B targets) of two cameras for every frame from the rows' first to
+    their last (a camera without targets in a frame gives none): the run as a pair saw it."""
+    if not len(rows.frame):
+        return
+    first, last = int(rows.frame.min()), int(rows.frame.max())
+    order = np.argsort(rows.frame, kind="stable")
+    bounds = np.searchsorted(rows.frame[order], np.arange(first, last + 2))
+    for k, frame in enumerate(range(first, last + 1)):
+        chunk = order[bounds[k]:bounds[k + 1]]
+        a, b = (chunk[rows.camera[chunk] == name] for name in names)
+        yield frame, _targets(rows, a, sizes[names[0]]), _targets(rows, b, sizes[names[1]])
+
+
+def _targets(rows: Rows, index: np.ndarray, size: tuple[int, int]) -> CameraTargets:
+    return CameraTargets(rows.target[index].astype(np.int64), rows.feet[index],
+                         rows.height[index], rows.boxes_xywh[index], size)
 
 
 def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H: np.ndarray,
