@@ -695,7 +695,10 @@ class MarkerConfig(_Checked):
     # unchanged, online +0.010, 'three' s0 H p90 22.9 -> 12.4 px; seeds 3-11 IDF1 0.9471 ->
     # 0.9439: 'three' s6/s10 +0.038/+0.057, but 'pillar' s6 0.913 -> 0.689 and s8 0.941 ->
     # 0.853 (two people walking together: confirmed by their own newer candidates, a loose
-    # H accepted). Untried: such an H used offline only, for pairs that end with no H.
+    # H accepted). After the run, for pairs that end with no H (resolve.comotion_without_h),
+    # a two-pair search where the three-pair one finds none gives 'three' s6 IDF1 0.859 ->
+    # 0.959, but over 200-frame windows of the sweep runs 28 of the 87 two-pair hypotheses
+    # found so were wrong by over a body height at the median: not taken.
     comotion_min_pairs: int = param(
         3, "bootstrap: distinct one-to-one target pairs that must follow the hypothesis (0 = off)",
         0, 100,
@@ -1039,11 +1042,12 @@ class ResolveConfig(_Checked):
     # other) found their three true target pairs at frame 575 of 600, too late for the
     # held-out check, and kept cross-camera consistency 0.50 / 0.63 from FOV links alone.
     # The same search over the whole run's candidates, unbounded (pooled as the bootstrap
-    # pools them, markers.comotion_*), gives the resolution an H for such pairs. On the 108
-    # pairs of the 96 generated sweep clips (seeds 0-11) it finds one for all but 'three' s6
-    # cam1-cam2 (two true pairs only), never one off by more than 45 px at p90 against the
-    # true H (s7 / s10 cam1-cam2: 5.1 / 6.6 px median, 12.0 / 12.2 p90); pairs with an H
-    # of their own keep it.
+    # pools them, markers.comotion_*), gives the resolution an H for such pairs (pairs with
+    # an H of their own keep it). Run on all 108 pairs of the 96 generated sweep clips (seeds
+    # 0-11), it finds one for all but 'three' s6 cam1-cam2 (two true pairs only); against the
+    # true H their median error is at most 22 px (a body height is 40-50 px) but for
+    # 'pillar' s6 (28 px, rejected below); s7 / s10 cam1-cam2: 7.1 / 6.7 px, p90 14.6 / 12.5.
+    # Refinished: 'three' s7 IDF1 0.831 -> 0.969, s10 0.863 -> 0.981, consistency 0.998, 1.0.
     comotion_without_h: bool = param(
         True, "a pair that ended the run without a homography gets one for the whole-run "
         "labels from a co-motion search over the run's candidates (pairs.json 'H_whole_run')",
@@ -1053,8 +1057,8 @@ class ResolveConfig(_Checked):
     # over a body height): the share of targets such an H projects well inside the other
     # camera that find a target there (homography.verify_gate_heights), over the whole run,
     # is 0.39-0.58 for 6 of the 9, 0.54 and up for the right ones (pillar: occluded people),
-    # above 0.6 for 143 of 144, for 106 of the 107 whole-run ones, and 0.92-0.93 for 'three'
-    # s7 / s10 cam1-cam2.
+    # 0.6 or more for 141 of 144 and for 106 of the 107 whole-run ones (not 'pillar' s6, 0.56),
+    # 0.92 / 0.93 for 'three' s7 / s10 cam1-cam2.
     comotion_min_found_share: float = param(
         0.6, "...used only if this share of the targets it projects well inside the other "
         "camera find a target there, over the run", 0.0, 1.0,

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import Counter
 
 import numpy as np
 import pytest
@@ -18,6 +19,7 @@ from mvtrack.stages.markers import (
     candidates_add,
     comotion_confirm,
     comotion_draws,
+    comotion_of_run,
     comotion_search,
     marker_points,
     marker_step,
@@ -183,6 +185,29 @@ def test_comotion_finds_the_pairs_that_move_together() -> None:
     assert np.allclose(found.H_b_from_a / found.H_b_from_a[2, 2],
                        [[1, 0, 200], [0, 1, 10], [0, 0, 1]], atol=1e-6)
     assert len(found.markers) == 80 and all(m.b_label == m.a_label + 100 for m in found.markers)
+
+
+def test_comotion_of_a_whole_run_pools_every_candidate_but_those_of_shrunk_targets() -> None:
+    """After the run (a pair without H): the pool is not bounded (comotion_pool_size 20 here,
+    of 80 candidates) and, as in the bootstrap, A's target 1 is left out while it is a third
+    shorter than the median of its last 10 heights: 20 px from frame 40 on, it is left out at
+    marker frame 40; at 45 its median is 20 px too."""
+    rng = np.random.default_rng(3)
+    starts = rng.uniform([100, 100], [300, 300], (4, 2))
+    vel = rng.uniform(-1.0, 1.0, (4, 2))
+    run = []
+    for f in range(100):
+        a, b = _walk(np.arange(4) + 1, np.arange(4) + 101, starts + f * vel)
+        if 40 <= f < 50:
+            a = CameraTargets(a.labels, a.feet, np.r_[20.0, a.heights_px[1:]], a.boxes_xywh,
+                              a.size)
+        run.append((f, a, b))
+    found = comotion_of_run(run, MarkerConfig(comotion_pool_size=20), seed=0)
+    assert found is not None and found.links == ((1, 101), (2, 102), (3, 103), (4, 104))
+    per_pair = Counter((m.a_label, m.b_label) for m in found.markers)
+    assert per_pair == {(1, 101): 19, (2, 102): 20, (3, 103): 20, (4, 104): 20}
+    assert comotion_of_run([(f, a.subset(a.labels < 3), b.subset(b.labels < 103))
+                            for f, a, b in run], MarkerConfig(), seed=0) is None
 
 
 def test_comotion_needs_enough_distinct_pairs() -> None:

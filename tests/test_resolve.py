@@ -2,14 +2,20 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+import json
+from dataclasses import dataclass, fields, replace
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from mvtrack.io.results import ResultsWriter, read_cues, read_tracks, rewrite_tracks
-from mvtrack.params import ParamsError, ResolveConfig
-from mvtrack.stages.resolve import resolve_labels
+from mvtrack.io import CameraSpec, ClipSpec
+from mvtrack.io.results import ResultsWriter, TrackRows, read_cues, read_tracks, rewrite_tracks
+from mvtrack.params import HomographyConfig, ParamsError, ResolveConfig, load_params
+from mvtrack.pipeline import finish_results
+from mvtrack.stages.homography import apply_homography, transfer_errors
+from mvtrack.stages.pair import found_share
+from mvtrack.stages.resolve import camera_frames, resolve_labels
 
 CFG = ResolveConfig()
 SHIFT = np.array([[1.0, 0.0, 40.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])  # cam1 = cam0 + (40, 0)
@@ -513,3 +519,96 @@ def test_cue_meta_follows_the_targets_and_carries_forward() -> None:
     (m,) = set(res.meta.tolist())
     got = res.cue_meta(np.array([5, 31, 40, 3]), np.array([2, 2, 7, 1]))
     assert got.tolist() == [m, m, 7, m]  # frame 31: no target carries meta 2 any more
+
+
+TRUE_H = np.array([[0.8, 0.15, 10.0], [0.05, 0.85, 20.0], [0.0002, 0.0004, 1.0]])
+WALKS = (((40.0, 100.0), (280.0, 200.0), range(0, 200)),  # cam0 feet from, to, frames
+         ((280.0, 90.0), (60.0, 220.0), range(120, 320)),
+         ((160.0, 70.0), (170.0, 225.0), range(260, 460)))
+
+
+def _unlinked_run(unseen: range = range(0)) -> TrackRows:
+    """Three people walking through both views of a 320x240 pair, one after another (each
+    overlapping the next), cam1 = TRUE_H(cam0) with 0.5 px noise; online, no link was ever
+    made: each of the six targets has its own meta. cam1 misses the third in ``unseen``."""
+    rng = np.random.default_rng(0)
+    parts = []
+    for k, (start, end, frames) in enumerate(WALKS):
+        f = np.array(frames, np.int64)
+        t = (f - f[0])[:, None] / (len(f) - 1)
+        feet0 = np.array(start) + t * (np.array(end) - np.array(start))
+        for cam, exact in (("cam0", feet0), ("cam1", apply_homography(TRUE_H, feet0))):
+            feet = exact + rng.normal(0.0, 0.5, exact.shape)
+            h = np.full(len(f), 50.0)
+            parts.append(TrackRows(f, np.array([cam] * len(f)), np.full(len(f), k + 1),
+                                   np.full(len(f), k + 1 + 3 * (cam == "cam1")), feet,
+                                   np.c_[feet[:, 0] - h / 4, feet[:, 1] - h, h / 2, h], h))
+    rows = TrackRows(*(np.concatenate([getattr(p, f.name) for p in parts])
+                       for f in fields(TrackRows)))
+    seen = ~((rows.camera == "cam1") & (rows.target == 3) & np.isin(rows.frame, unseen))
+    return TrackRows(*(getattr(rows, f.name)[seen] for f in fields(TrackRows)))
+
+
+def _pair_spec(root: Path) -> ClipSpec:
+    cams = tuple(CameraSpec(name, "detections", root / f"{name}.csv", 0, "rgb", (320, 240), 460)
+                 for name in ("cam0", "cam1"))
+    return ClipSpec(root, 25.0, cams, (("cam0", "cam1"),), 460, (), None, None)
+
+
+def _finish(tmp_path: Path, sets: list[str], unseen: range = range(0)
+            ) -> tuple[TrackRows, list[dict]]:
+    """The unlinked run written as a results directory whose pair learned no H, finished."""
+    ResultsWriter(tmp_path).close({"frames": 460}, [
+        {"cameras": ["cam0", "cam1"], "H": None, "H_from_frame": None, "markers": 0,
+         "fov_events": 0, "fov_lines": [], "H_whole_run": "stale"}])
+    rewrite_tracks(tmp_path, _unlinked_run(unseen), lambda f, m: m)
+    pairs = json.loads((tmp_path / "pairs.json").read_text())
+    finish_results(tmp_path, pairs, load_params(None, sets), _pair_spec(tmp_path))
+    return read_tracks(tmp_path / "tracks.csv"), json.loads((tmp_path / "pairs.json").read_text())
+
+
+def test_a_pair_without_h_is_resolved_with_the_whole_runs_co_motion_h(tmp_path) -> None:
+    """Online the pair learned no H and linked nobody (three people, one after another);
+    after the run the co-motion search over all its candidates pairs them with an H within a
+    pixel of the true one, and each person gets one meta in both cameras."""
+    rows, pairs = _finish(tmp_path, [])
+    metas = _meta_of(rows, rows.meta)
+    assert all(metas["cam0", k] == metas["cam1", k] and len(metas["cam0", k]) == 1
+               for k in (1, 2, 3))
+    assert len({m for k in (1, 2, 3) for m in metas["cam0", k]}) == 3
+    (pair,) = pairs
+    found = pair["H_whole_run"]
+    assert found["links"] == [[1, 1], [2, 2], [3, 3]] and found["used"]
+    assert found["found_share"] > 0.95 and pair["H"] is None
+    pts = np.array([w[0] for w in WALKS] + [w[1] for w in WALKS])
+    err = transfer_errors(np.array(found["H"]), pts, apply_homography(TRUE_H, pts))
+    assert err.max() < 1.0
+
+
+def test_without_the_whole_run_search_a_pair_without_h_keeps_its_own_links(tmp_path) -> None:
+    rows, pairs = _finish(tmp_path, ["resolve.comotion_without_h=false"])
+    metas = _meta_of(rows, rows.meta)
+    assert all(metas["cam0", k] != metas["cam1", k] for k in (1, 2, 3))
+    assert "H_whole_run" not in pairs[0]  # the stale key of an earlier finish is gone
+
+
+def test_a_whole_run_h_that_finds_too_few_targets_is_not_used(tmp_path) -> None:
+    """cam1 misses the third person for their last 100 frames: of the targets the H projects
+    well inside the other camera, a share under 0.95 finds one there (still over 0.6)."""
+    rows, pairs = _finish(tmp_path, ["resolve.comotion_min_found_share=0.95"], range(360, 460))
+    found = pairs[0]["H_whole_run"]
+    assert 0.6 < found["found_share"] < 0.95 and not found["used"]
+    metas = _meta_of(rows, rows.meta)
+    assert all(metas["cam0", k] != metas["cam1", k] for k in (1, 2, 3))
+    _, pairs = _finish(tmp_path, [], range(360, 460))
+    assert pairs[0]["H_whole_run"]["used"]
+
+
+def test_found_share_of_the_true_and_of_a_wrong_homography() -> None:
+    run = list(camera_frames(_unlinked_run(), ("cam0", "cam1"), {"cam0": (320, 240),
+                                                                  "cam1": (320, 240)}))
+    assert len(run) == 460 and sum(len(a) for _, a, _ in run) == 600
+    assert found_share(TRUE_H, run, HomographyConfig()) > 0.99
+    wrong = TRUE_H.copy()
+    wrong[0, 2] += 60.0  # everyone projected 60 px (over a body height) to the right
+    assert found_share(wrong, run, HomographyConfig()) < 0.1

@@ -646,6 +646,23 @@ def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:
                     "cam0: retired t5, t6"]
 
 
+def test_the_event_log_tells_what_the_whole_run_labels_did_for_a_pair_without_h() -> None:
+    from mvtrack.stages.markers import Comotion
+    from mvtrack.stages.resolve import WholeRunH
+    from mvtrack.viz.pairs import whole_run_h_text
+
+    hypothesis = Comotion(np.eye(3), ((1, 5), (6, 10)), ())
+    assert whole_run_h_text("cam1-cam2", None, 0.6) == (
+        "whole-run labels: pair cam1-cam2 learned no homography; a co-motion search over the "
+        "run found none either: the labels keep the run's own links")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.92, True), 0.6) == (
+        "whole-run labels: pair cam1-cam2 learned no homography; a co-motion search over the "
+        "run links [t1 ↔ t5, t6 ↔ t10] (0 candidates); of the targets its H puts inside the "
+        "other camera, 92% find one there: the labels use it")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.4, False), 0.6).endswith(
+        "40% find one there: under 60%: not used, the labels keep the run's own links")
+
+
 def test_the_event_log_tells_the_co_motion_rounds_of_a_pair_without_a_homography() -> None:
     """While a pair has no homography, each co-motion round that differs from the last is one
     line: what was pooled, the held hypotheses' verdicts, what the search found and what was

@@ -298,6 +298,20 @@ def bootstrap_text(name: str, round_: Any) -> str:
     return text
 
 
+def whole_run_h_text(name: str, found: Any, min_share: float) -> str:
+    """One line telling what the whole-run labels did for a pair that ended the run with no
+    homography (``found``: its :class:`~mvtrack.stages.resolve.WholeRunH` or None)."""
+    text = f"whole-run labels: pair {name} learned no homography; a co-motion search over the run"
+    if found is None:
+        return text + " found none either: the labels keep the run's own links"
+    share = "none" if found.found_share is None else f"{found.found_share:.0%}"
+    verdict = ("the labels use it" if found.used
+               else f"under {min_share:.0%}: not used, the labels keep the run's own links")
+    return (text + f" links [{_links_text(found.hypothesis.links)}] "
+            f"({len(found.hypothesis.markers)} candidates); of the targets its H puts inside "
+            f"the other camera, {share} find one there: {verdict}")
+
+
 def _log_bootstrap(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:
     round_ = pr.bootstrap
     if round_ is None:

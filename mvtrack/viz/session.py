@@ -21,6 +21,8 @@ from mvtrack.io.results import RowsCollector
 from mvtrack.params import Params
 from mvtrack.pipeline import RunSummary, finish_rows, run
 from mvtrack.stages.pair import PairPrior
+from mvtrack.viz import paths
+from mvtrack.viz.pairs import whole_run_h_text
 from mvtrack.viz.sink import LogOptions, RerunSink
 
 __all__ = [
@@ -82,6 +84,9 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     written = {"": final}
     if res is not None:
         sink.log_resolved(kept, res.meta, done, res.switches)
+        for pair, found in res.comotion.items():
+            sink.event(whole_run_h_text(paths.pair_name(*pair), found,
+                                        params.resolve.comotion_min_found_share))
         written["_online"] = kept
     if params.feet.smooth_seconds > 0:
         sink.log_final_feet(final, done)
