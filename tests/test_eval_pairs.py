@@ -108,6 +108,16 @@ def test_a_wrong_homography_gives_its_transfer_error(truth) -> None:  # type: ig
     assert t["median"] == pytest.approx(6.0) and t["p90"] == pytest.approx(6.0)
     (none,) = pair_metrics(truth, [_pair(None, [])])
     assert none["transfer_error_px"]["median"] is None
+    assert "whole_run_transfer_error_px" not in m | none
+
+
+def test_the_whole_run_h_of_a_pair_without_h_is_scored(truth) -> None:  # type: ignore[no-untyped-def]
+    off = SHIFT.copy()
+    off[1, 2] -= 4.0
+    pair = _pair(None, []) | {"H_whole_run": {"H": off.tolist(), "links": [], "used": True}}
+    (m,) = pair_metrics(truth, [pair])
+    assert m["transfer_error_px"]["median"] is None
+    assert m["whole_run_transfer_error_px"]["median"] == pytest.approx(4.0)
 
 
 def test_grid_points_when_nobody_is_seen_by_both(tmp_path: Path) -> None:

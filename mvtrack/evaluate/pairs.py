@@ -11,7 +11,8 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
   of both cameras and inside ``seen_in``'s frame; the error is the mean (and max) distance of
   that segment to the learned line, px (sides left, right, bottom: the top border of a camera
   images far ground, or the sky, where nobody's feet are);
-- FOV events and markers made before the first valid homography, and its frame.
+- FOV events and markers made before the first valid homography, and its frame;
+- for a pair without H, the transfer error of ``H_whole_run`` (the whole-run labels' H) too.
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -181,12 +182,18 @@ def _transfer(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> dict[str, An
     a, b = pair["cameras"]
     pts_a, source = shared_ground_points(truth, a, b, sizes)
     H_true = true_H_b_from_a(_g(truth, a), _g(truth, b))
-    out: dict[str, Any] = {"points_from": source}
-    if pair.get("H") is None or len(pts_a) == 0:
-        return out | {"transfer_error_px": _stats(np.zeros(0))}
     pts_b = apply_homography(H_true, pts_a)
-    errors = transfer_errors(np.asarray(pair["H"], np.float64), pts_a, pts_b)
-    return out | {"transfer_error_px": _stats(errors)}
+    out = {"points_from": source, "transfer_error_px": _errors(pair.get("H"), pts_a, pts_b)}
+    if pair.get("H_whole_run") is not None:  # the whole-run labels' H of a pair without one
+        out["whole_run_transfer_error_px"] = _errors(pair["H_whole_run"]["H"], pts_a, pts_b)
+    return out
+
+
+def _errors(H: Any, pts_a: np.ndarray, pts_b: np.ndarray) -> dict[str, float | int | None]:
+    """:func:`_stats` of ``H``'s transfer errors (none without H or points)."""
+    if H is None or not len(pts_a):
+        return _stats(np.zeros(0))
+    return _stats(transfer_errors(np.asarray(H, np.float64), pts_a, pts_b))
 
 
 def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[str, Any]]:
