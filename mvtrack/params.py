@@ -1042,23 +1042,34 @@ class ResolveConfig(_Checked):
     # other) found their three true target pairs at frame 575 of 600, too late for the
     # held-out check, and kept cross-camera consistency 0.50 / 0.63 from FOV links alone.
     # The same search over the whole run's candidates, unbounded (pooled as the bootstrap
-    # pools them, markers.comotion_*), gives the resolution an H for such pairs (pairs with
-    # an H of their own keep it). Run on all 108 pairs of the 96 generated sweep clips (seeds
-    # 0-11), it finds one for all but 'three' s6 cam1-cam2 (two true pairs only); against the
-    # true H their median error is at most 22 px (a body height is 40-50 px) but for
-    # 'pillar' s6 (28 px, rejected below); s7 / s10 cam1-cam2: 7.1 / 6.7 px, p90 14.6 / 12.5.
-    # Refinished: 'three' s7 IDF1 0.831 -> 0.969, s10 0.863 -> 0.981, consistency 0.998, 1.0.
+    # pools them, markers.comotion_*, but see comotion_top_cut), gives the resolution an H
+    # for such pairs (pairs with an H of their own keep it). Run on all 108 pairs of the 96
+    # generated sweep clips (seeds 0-11) it finds one for 106, each within 10.4 px of the
+    # true H at the median (a body height is 40-50 px); 'three' s6 / s7 / s10 cam1-cam2:
+    # 1.9 / 4.8 / 6.7 px, p90 4.6 / 11.1 / 12.5. Those three runs, refinished: IDF1 0.859 /
+    # 0.831 / 0.863 -> 0.979 / 0.969 / 0.981, consistency 0.485 / 0.497 / 0.634 -> 1.0 /
+    # 0.998 / 1.0; nothing else changes (no other run ends with a pair without H).
     comotion_without_h: bool = param(
         True, "a pair that ended the run without a homography gets one for the whole-run "
         "labels from a co-motion search over the run's candidates (pairs.json 'H_whole_run')",
     )
-    # Without the held-out check a search of a small pool can be wrong. Searches of 200-frame
-    # windows of the same runs found 153 three-pair hypotheses, 9 of them wrong (median error
-    # over a body height): the share of targets such an H projects well inside the other
-    # camera that find a target there (homography.verify_gate_heights), over the whole run,
-    # is 0.39-0.58 for 6 of the 9, 0.54 and up for the right ones (pillar: occluded people),
-    # 0.6 or more for 141 of 144 and for 106 of the 107 whole-run ones (not 'pillar' s6, 0.56),
-    # 0.92 / 0.93 for 'three' s7 / s10 cam1-cam2.
+    # A person who walks along the top border of one view, cut by it, has their feet in view
+    # but is never "fully inside": 'three' s6 cam1-cam2 pools two true target pairs only (its
+    # third person is cut by cam1's top border all the way) and the search finds no H. Over
+    # 200-frame windows of the 96 sweep runs the searches find 176 three-pair hypotheses with
+    # them, 6 wrong (over a body height off at the median), and 153, 9 wrong, without. Not
+    # in the online bootstrap: there ('three' s0: an early hypothesis from the feet of such
+    # people) seeds 0-2 IDF1 0.9662 -> 0.9641, H p90 7.1 -> 7.6 px (online IDF1 0.808 ->
+    # 0.815, first H at frame 218 -> 196 on average).
+    comotion_top_cut: bool = param(
+        True, "...whose search pools targets cut only by the top border of their frame too",
+    )
+    # Without the held-out check a search of a small pool can be wrong: of those 6 wrong
+    # hypotheses of 200-frame windows, 4 find a target for under 0.6 of the targets they
+    # project well inside the other camera (homography.verify_gate_heights), over the whole
+    # run (0.35-0.53); the right ones 0.54 and up (pillar: people behind the pillar), 0.6 or
+    # more for 166 of 170, and for all 106 of the whole runs (0.61 and up; 'three' s6 / s7 /
+    # s10 cam1-cam2 0.92 / 0.93 / 0.93).
     comotion_min_found_share: float = param(
         0.6, "...used only if this share of the targets it projects well inside the other "
         "camera find a target there, over the run", 0.0, 1.0,

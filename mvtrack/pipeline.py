@@ -368,7 +368,8 @@ def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]], params:
     :func:`~mvtrack.stages.resolve.camera_frames` gives them), used when enough of the
     targets its H projects into the other camera find one there
     (``resolve.comotion_min_found_share``); None when the search finds none."""
-    found = comotion_of_run(run, params.markers, params.homography.ransac_seed)
+    found = comotion_of_run(run, params.markers, params.homography.ransac_seed,
+                            params.resolve.comotion_top_cut)
     if found is None:
         return None
     share = found_share(found.H_b_from_a, run, params.homography)

@@ -210,6 +210,24 @@ def test_comotion_of_a_whole_run_pools_every_candidate_but_those_of_shrunk_targe
                             for f, a, b in run], MarkerConfig(), seed=0) is None
 
 
+def test_comotion_of_a_whole_run_can_pool_targets_cut_by_the_top_border() -> None:
+    """A's target 3 walks along the top border, its box cut by it (feet in view): with
+    ``top_cut`` its pair is pooled and the three true pairs are found; without, two remain,
+    too few for a hypothesis."""
+    rng = np.random.default_rng(3)
+    starts = rng.uniform([100, 100], [300, 300], (3, 2))
+    vel = rng.uniform(-1.0, 1.0, (3, 2))
+    run = []
+    for f in range(100):
+        a, b = _walk(np.arange(3) + 1, np.arange(3) + 101, starts + f * vel)
+        boxes = a.boxes_xywh.copy()
+        boxes[2, 1], boxes[2, 3] = 0.0, boxes[2, 1] + boxes[2, 3]  # from the top row down
+        run.append((f, CameraTargets(a.labels, a.feet, a.heights_px, boxes, a.size), b))
+    assert comotion_of_run(run, MarkerConfig(), seed=0) is None
+    found = comotion_of_run(run, MarkerConfig(), seed=0, top_cut=True)
+    assert found is not None and found.links == ((1, 101), (2, 102), (3, 103))
+
+
 def test_comotion_needs_enough_distinct_pairs() -> None:
     cfg = MarkerConfig()
     pool = _pool(2)  # two walks: any H could follow them, so no hypothesis is accepted

@@ -27,7 +27,7 @@ from mvtrack.stages.homography import (
     transfer_errors,
     transfer_errors_many,
 )
-from mvtrack.stages.targets import CameraTargets
+from mvtrack.stages.targets import SIDES, CameraTargets
 
 __all__ = [
     "Candidates",
@@ -216,9 +216,14 @@ def marker_step(
     return new_state, MarkerResult(tried, tuple(dropped), tuple(rejected), markers)
 
 
-def _inside(targets: CameraTargets, cfg: MarkerConfig) -> np.ndarray:
-    """(N,) bool: test (a), the target's box is inside its frame by ``inside_margin_px``."""
-    return np.asarray(~targets.touches(cfg.inside_margin_px).any(axis=1), bool)
+def _inside(targets: CameraTargets, cfg: MarkerConfig, top_cut: bool = False) -> np.ndarray:
+    """(N,) bool: test (a), the target's box is inside its frame by ``inside_margin_px``; with
+    ``top_cut`` on every side but the top (a target cut only by the top border has its feet
+    in view)."""
+    sides = targets.touches(cfg.inside_margin_px)
+    if top_cut:
+        sides = np.delete(sides, SIDES.index("top"), axis=1)
+    return np.asarray(~sides.any(axis=1), bool)
 
 
 def _pt(xy: np.ndarray) -> tuple[float, float]:
@@ -308,14 +313,14 @@ def candidates_add(
 
 def _frame_candidates(
     a: CameraTargets, b: CameraTargets, cfg: MarkerConfig, frame: int,
-    exclude: frozenset[tuple[int, int]] = frozenset(),
+    exclude: frozenset[tuple[int, int]] = frozenset(), top_cut: bool = False,
 ) -> Candidates | None:
-    """Every (A, B) pair of fully-inside targets of a marker frame but those in ``exclude``;
-    None on other frames or when there is none."""
+    """Every (A, B) pair of fully-inside targets (:func:`_inside`) of a marker frame but those
+    in ``exclude``; None on other frames or when there is none."""
     if frame % cfg.marker_every_frames or not len(a) or not len(b):
         return None
-    ia = np.flatnonzero(_inside(a, cfg))
-    ib = np.flatnonzero(_inside(b, cfg))
+    ia = np.flatnonzero(_inside(a, cfg, top_cut))
+    ib = np.flatnonzero(_inside(b, cfg, top_cut))
     ga, gb = (g.ravel() for g in np.meshgrid(ia, ib, indexing="ij"))
     if exclude:
         ok = _not_in(exclude, a.labels[ga], b.labels[gb])
@@ -563,15 +568,17 @@ def comotion_search(
 
 
 def comotion_of_run(
-    run: Iterable[tuple[int, CameraTargets, CameraTargets]], cfg: MarkerConfig, seed: int
+    run: Iterable[tuple[int, CameraTargets, CameraTargets]], cfg: MarkerConfig, seed: int,
+    top_cut: bool = False,
 ) -> Comotion | None:
     """:func:`comotion_search` over every candidate of a whole run [beyond]: ``run`` gives
     (frame, A targets, B targets) for every frame in order; candidates are pooled as the
-    bootstrap pools them (marker frames, fully inside, no target shorter than its recent
-    median with ``comotion_height_test``) but the pool is not bounded. For pairs that end a
-    run without a homography (whole-run labels, `stages/resolve.py`): the bootstrap's
-    held-out check needs candidates after the search, and a run can end first (generated
-    'three' seeds 7 and 10 found their three true pairs at frame 575 of 600)."""
+    bootstrap pools them (marker frames, fully inside, or but for the top with ``top_cut``, no
+    target shorter than its recent median with ``comotion_height_test``) but the pool is not
+    bounded. For pairs that end a run without a homography (whole-run labels,
+    `stages/resolve.py`): the bootstrap's held-out check needs candidates after the search,
+    and a run can end first (generated 'three' seeds 7 and 10 found their three true pairs
+    at frame 575 of 600)."""
     parts = [Candidates.empty()]
     heights: tuple[dict[int, tuple[float, ...]], dict[int, tuple[float, ...]]] = ({}, {})
     for frame, a, b in run:
@@ -580,7 +587,7 @@ def comotion_of_run(
             if cfg.comotion_height_test:
                 tall = (a.subset(not_shrunk(heights[0], a, cfg)),
                         b.subset(not_shrunk(heights[1], b, cfg)))
-            new = _frame_candidates(*tall, cfg, frame)
+            new = _frame_candidates(*tall, cfg, frame, top_cut=top_cut)
             parts += [] if new is None else [new]
         heights = (_update_heights(heights[0], a, cfg.height_window_frames),
                    _update_heights(heights[1], b, cfg.height_window_frames))

@@ -15,7 +15,10 @@ the results give each target one meta for its whole life:
 - a **cross-camera link** needs ``min_votes`` votes and ``min_vote_share`` of the frames both
   targets were present;
 - pairs without a final H (and every pair with the FOV-only matcher, which must not use H) keep
-  the run's own links: votes = frames the two targets carried one meta together;
+  the run's own links: votes = frames the two targets carried one meta together; but a pair
+  the run learned no H for is first given the H of a co-motion search over its whole run
+  (`pipeline.resolve_rows`, :func:`~mvtrack.stages.markers.comotion_of_run`) when that finds
+  one whose projections find targets;
 - **identity switches**: a target whose votes go to one target of the other camera for at
   least ``switch_min_votes`` frames, then to another for as long, while those two are present
   together for more than ``max_shared_frames`` frames (two people), changed person in between
