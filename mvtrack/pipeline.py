@@ -341,10 +341,10 @@ def train_backgrounds(clip: Clip, frames: range, params: Params) -> dict[str, Ba
 def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
                  spec: ClipSpec) -> Resolution:
     """Whole-run labels (`stages/resolve.py`) of a run's target rows, with the pairs' final
-    homographies (`pairs.json` objects); the FOV-only matcher resolves without them. A pair
-    without one gets the whole run's co-motion hypothesis, when there is one and
-    ``resolve.comotion_without_h`` (:func:`~mvtrack.stages.markers.comotion_of_run`; in the
-    resolution's ``comotion``)."""
+    homographies (`pairs.json` objects); the FOV-only matcher resolves without them. With
+    ``resolve.whole_run_h`` each pair's whole run is searched for a co-motion homography
+    (:func:`whole_run_h`, in the resolution's ``comotion``), whose H is used instead where it
+    is found better."""
     use_h = params.matcher.method != "fov"
     sizes = {c.name: c.size for c in spec.cameras}
     final: list[tuple[str, str, np.ndarray | None]] = []
@@ -352,8 +352,9 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     for p in pairs:
         a, b = p["cameras"]
         H = None if p["H"] is None else np.asarray(p["H"], np.float64)
-        if H is None and use_h and params.resolve.comotion_without_h:
-            found = comotion[a, b] = whole_run_h(list(camera_frames(rows, (a, b), sizes)), params)
+        if use_h and params.resolve.whole_run_h:
+            found = comotion[a, b] = whole_run_h(list(camera_frames(rows, (a, b), sizes)), H,
+                                                 params)
             if found is not None and found.used:
                 H = found.hypothesis.H_b_from_a
         final.append((a, b, H))
@@ -362,19 +363,23 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     return replace(res, comotion=comotion)
 
 
-def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]], params: Params
-                ) -> WholeRunH | None:
+def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]],
+                final_H: np.ndarray | None, params: Params) -> WholeRunH | None:
     """The co-motion hypothesis of a pair's whole run (``run``: its frames as
-    :func:`~mvtrack.stages.resolve.camera_frames` gives them), used when enough of the
-    targets its H projects into the other camera find one there
-    (``resolve.comotion_min_found_share``); None when the search finds none."""
+    :func:`~mvtrack.stages.resolve.camera_frames` gives them; None when the search finds
+    none). Its H is used when enough of the targets it projects into the other camera find
+    one there (``resolve.whole_run_h_min_found_share``) and, if the run ended with an H
+    (``final_H``), more than of that one's by ``resolve.whole_run_h_margin``."""
+    cfg = params.resolve
     found = comotion_of_run(run, params.markers, params.homography.ransac_seed,
-                            params.resolve.comotion_top_cut)
+                            cfg.whole_run_h_top_cut)
     if found is None:
         return None
     share = found_share(found.H_b_from_a, run, params.homography)
-    return WholeRunH(found, share, share is not None
-                     and share >= params.resolve.comotion_min_found_share)
+    final = None if final_H is None else found_share(final_H, run, params.homography)
+    used = share is not None and share >= cfg.whole_run_h_min_found_share and (
+        final_H is None or share > (final or 0.0) + cfg.whole_run_h_margin)
+    return WholeRunH(found, share, final, used)
 
 
 def smoothed_feet(rows: TrackRows, params: Params, fps: float) -> np.ndarray:
@@ -422,8 +427,8 @@ def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Param
                    spec: ClipSpec) -> None:
     """Rewrite a finished results directory's `tracks.csv` and `cues.csv` with
     :func:`finish_rows` (the streamed ones stay as `*_online.csv`; nothing to do with neither
-    smoothing nor whole-run labels), and `pairs.json` with the homographies the whole-run
-    labels used for pairs without one (:func:`_with_whole_run_h`)."""
+    smoothing nor whole-run labels), and `pairs.json` with the whole-run homographies
+    (:func:`_with_whole_run_h`)."""
     res = None
     if params.feet.smooth_seconds > 0 or params.resolve.labels == "whole_run":
         rows = read_tracks(Path(out_dir) / "tracks.csv")
@@ -433,9 +438,10 @@ def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Param
 
 
 def _with_whole_run_h(pair: dict[str, Any], res: Resolution | None) -> dict[str, Any]:
-    """A `pairs.json` object with ``H_whole_run`` as the resolution found it for a pair the
-    run learned no H for: null (no hypothesis), or ``{"H", "links" ([A label, B label]
-    pairs), "candidates" (its inliers), "found_share", "used"}``; absent where not searched."""
+    """A `pairs.json` object with ``H_whole_run`` as the resolution found it (:func:
+    `whole_run_h`): null (no hypothesis), or ``{"H", "links" ([A label, B label] pairs),
+    "candidates" (its inliers), "found_share", "final_found_share" (of ``H``), "used"}``;
+    absent where not searched."""
     pair = {k: v for k, v in pair.items() if k != "H_whole_run"}
     key = (pair["cameras"][0], pair["cameras"][1])
     if res is None or key not in res.comotion:
@@ -445,7 +451,7 @@ def _with_whole_run_h(pair: dict[str, Any], res: Resolution | None) -> dict[str,
         "H": found.hypothesis.H_b_from_a.tolist(),
         "links": [list(link) for link in found.hypothesis.links],
         "candidates": len(found.hypothesis.markers), "found_share": found.found_share,
-        "used": found.used}}
+        "final_found_share": found.final_share, "used": found.used}}
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

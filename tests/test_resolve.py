@@ -555,12 +555,14 @@ def _pair_spec(root: Path) -> ClipSpec:
     return ClipSpec(root, 25.0, cams, (("cam0", "cam1"),), 460, (), None, None)
 
 
-def _finish(tmp_path: Path, sets: list[str], unseen: range = range(0)
-            ) -> tuple[TrackRows, list[dict]]:
-    """The unlinked run written as a results directory whose pair learned no H, finished."""
+def _finish(tmp_path: Path, sets: list[str], unseen: range = range(0),
+            final_H: np.ndarray | None = None) -> tuple[TrackRows, list[dict]]:
+    """The unlinked run written as a results directory whose pair ended with ``final_H``
+    (default none), finished."""
     ResultsWriter(tmp_path).close({"frames": 460}, [
-        {"cameras": ["cam0", "cam1"], "H": None, "H_from_frame": None, "markers": 0,
-         "fov_events": 0, "fov_lines": [], "H_whole_run": "stale"}])
+        {"cameras": ["cam0", "cam1"], "H": None if final_H is None else final_H.tolist(),
+         "H_from_frame": None, "markers": 0, "fov_events": 0, "fov_lines": [],
+         "H_whole_run": "stale"}])
     rewrite_tracks(tmp_path, _unlinked_run(unseen), lambda f, m: m)
     pairs = json.loads((tmp_path / "pairs.json").read_text())
     finish_results(tmp_path, pairs, load_params(None, sets), _pair_spec(tmp_path))
@@ -586,7 +588,7 @@ def test_a_pair_without_h_is_resolved_with_the_whole_runs_co_motion_h(tmp_path) 
 
 
 def test_without_the_whole_run_search_a_pair_without_h_keeps_its_own_links(tmp_path) -> None:
-    rows, pairs = _finish(tmp_path, ["resolve.comotion_without_h=false"])
+    rows, pairs = _finish(tmp_path, ["resolve.whole_run_h=false"])
     metas = _meta_of(rows, rows.meta)
     assert all(metas["cam0", k] != metas["cam1", k] for k in (1, 2, 3))
     assert "H_whole_run" not in pairs[0]  # the stale key of an earlier finish is gone
@@ -595,13 +597,33 @@ def test_without_the_whole_run_search_a_pair_without_h_keeps_its_own_links(tmp_p
 def test_a_whole_run_h_that_finds_too_few_targets_is_not_used(tmp_path) -> None:
     """cam1 misses the third person for their last 100 frames: of the targets the H projects
     well inside the other camera, a share under 0.95 finds one there (still over 0.6)."""
-    rows, pairs = _finish(tmp_path, ["resolve.comotion_min_found_share=0.95"], range(360, 460))
+    rows, pairs = _finish(tmp_path, ["resolve.whole_run_h_min_found_share=0.95"], range(360, 460))
     found = pairs[0]["H_whole_run"]
     assert 0.6 < found["found_share"] < 0.95 and not found["used"]
     metas = _meta_of(rows, rows.meta)
     assert all(metas["cam0", k] != metas["cam1", k] for k in (1, 2, 3))
     _, pairs = _finish(tmp_path, [], range(360, 460))
     assert pairs[0]["H_whole_run"]["used"]
+
+
+def test_the_whole_run_h_replaces_a_final_h_whose_projections_find_few_targets(tmp_path
+                                                                              ) -> None:
+    """The run ended with an H 60 px off (everyone projected a body height away): nobody was
+    linked by it, and the whole run's H, whose projections find their targets, replaces it.
+    A right final H is kept (the whole run's finds no more)."""
+    wrong = TRUE_H.copy()
+    wrong[0, 2] += 60.0
+    rows, pairs = _finish(tmp_path, [], final_H=wrong)
+    found = pairs[0]["H_whole_run"]
+    assert found["final_found_share"] < 0.1 and found["found_share"] > 0.95 and found["used"]
+    metas = _meta_of(rows, rows.meta)
+    assert all(metas["cam0", k] == metas["cam1", k] and len(metas["cam0", k]) == 1
+               for k in (1, 2, 3))
+    _, pairs = _finish(tmp_path, [], final_H=TRUE_H)
+    found = pairs[0]["H_whole_run"]
+    assert found["final_found_share"] > 0.99 and not found["used"]
+    _, pairs = _finish(tmp_path, ["resolve.whole_run_h_margin=1"], final_H=wrong)
+    assert not pairs[0]["H_whole_run"]["used"]
 
 
 def test_found_share_of_the_true_and_of_a_wrong_homography() -> None:

@@ -646,21 +646,30 @@ def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:
                     "cam0: retired t5, t6"]
 
 
-def test_the_event_log_tells_what_the_whole_run_labels_did_for_a_pair_without_h() -> None:
+def test_the_event_log_tells_what_the_whole_run_labels_did_with_a_pairs_search() -> None:
     from mvtrack.stages.markers import Comotion
     from mvtrack.stages.resolve import WholeRunH
     from mvtrack.viz.pairs import whole_run_h_text
 
     hypothesis = Comotion(np.eye(3), ((1, 5), (6, 10)), ())
-    assert whole_run_h_text("cam1-cam2", None, 0.6) == (
-        "whole-run labels: pair cam1-cam2 learned no homography; a co-motion search over the "
-        "run found none either: the labels keep the run's own links")
-    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.92, True), 0.6) == (
-        "whole-run labels: pair cam1-cam2 learned no homography; a co-motion search over the "
-        "run links [t1 ↔ t5, t6 ↔ t10] (0 candidates); of the targets its H puts inside the "
-        "other camera, 92% find one there: the labels use it")
-    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.4, False), 0.6).endswith(
-        "40% find one there: under 60%: not used, the labels keep the run's own links")
+    head = "whole-run labels: pair cam1-cam2: a co-motion search over the run"
+    found = f"{head} links [t1 ↔ t5, t6 ↔ t10] (0 candidates); of the targets its H puts "
+    assert whole_run_h_text("cam1-cam2", None, False, 0.6) == (
+        f"{head} found no homography; the labels keep the run's links")
+    assert whole_run_h_text("cam1-cam2", None, True, 0.6) == (
+        f"{head} found no homography; the labels use the run's final H")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.92, None, True), False,
+                            0.6) == (found + "inside the other camera, 92% find one there: "
+                                     "the labels use it")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.4, None, False), False,
+                            0.6).endswith("40% find one there: under 60%, the labels keep the "
+                                          "run's links")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.68, 0.49, True), True,
+                            0.6).endswith("68% find one there (49% with the run's final H): "
+                                          "the labels use it instead")
+    assert whole_run_h_text("cam1-cam2", WholeRunH(hypothesis, 0.9, 0.9, False), True,
+                            0.6).endswith("(90% with the run's final H): the labels use the "
+                                          "run's final H")
 
 
 def test_the_event_log_tells_the_co_motion_rounds_of_a_pair_without_a_homography() -> None:

@@ -12,7 +12,7 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
   that segment to the learned line, px (sides left, right, bottom: the top border of a camera
   images far ground, or the sky, where nobody's feet are);
 - FOV events and markers made before the first valid homography, and its frame;
-- for a pair without H, the transfer error of ``H_whole_run`` (the whole-run labels' H) too.
+- the transfer error of ``H_whole_run`` too (the whole run's co-motion H), where there is one.
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -184,7 +184,7 @@ def _transfer(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> dict[str, An
     H_true = true_H_b_from_a(_g(truth, a), _g(truth, b))
     pts_b = apply_homography(H_true, pts_a)
     out = {"points_from": source, "transfer_error_px": _errors(pair.get("H"), pts_a, pts_b)}
-    if pair.get("H_whole_run") is not None:  # the whole-run labels' H of a pair without one
+    if pair.get("H_whole_run") is not None:
         out["whole_run_transfer_error_px"] = _errors(pair["H_whole_run"]["H"], pts_a, pts_b)
     return out
 

@@ -15,10 +15,10 @@ the results give each target one meta for its whole life:
 - a **cross-camera link** needs ``min_votes`` votes and ``min_vote_share`` of the frames both
   targets were present;
 - pairs without a final H (and every pair with the FOV-only matcher, which must not use H) keep
-  the run's own links: votes = frames the two targets carried one meta together; but a pair
-  the run learned no H for is first given the H of a co-motion search over its whole run
-  (`pipeline.resolve_rows`, :func:`~mvtrack.stages.markers.comotion_of_run`) when that finds
-  one whose projections find targets;
+  the run's own links: votes = frames the two targets carried one meta together; but a
+  co-motion search over each pair's whole run (`pipeline.resolve_rows`,
+  :func:`~mvtrack.stages.markers.comotion_of_run`) first gives a pair the run learned no H
+  for one, and replaces a final H whose projections find clearly fewer targets;
 - **identity switches**: a target whose votes go to one target of the other camera for at
   least ``switch_min_votes`` frames, then to another for as long, while those two are present
   together for more than ``max_shared_frames`` frames (two people), changed person in between
@@ -133,12 +133,14 @@ class ResolvedLink:
 
 @dataclass(frozen=True)
 class WholeRunH:
-    """A co-motion hypothesis found over a whole run for a pair without a final H, the share
-    of its projections that found a target (:func:`~mvtrack.stages.pair.found_share`) and
-    whether the votes used its H."""
+    """A pair's co-motion hypothesis found over its whole run, the share of the targets its H
+    projects well inside the other camera that find one there
+    (:func:`~mvtrack.stages.pair.found_share`), the same of the run's final H (None: none or
+    no projection) and whether the votes used the hypothesis's H."""
 
     hypothesis: Comotion
     found_share: float | None
+    final_share: float | None
     used: bool
 
 
@@ -150,8 +152,8 @@ class Resolution:
     links: tuple[ResolvedLink, ...]
     online_to_resolved: dict[tuple[int, int], int]  # (frame, online meta) -> resolved meta
     switches: tuple[Switch, ...] = ()  # targets cut where they changed person
-    # pairs the run learned no H for, when searched (`pipeline.resolve_rows`): the whole
-    # run's co-motion hypothesis (None: none found; the run's own links decide)
+    # per pair searched (`pipeline.resolve_rows`): the whole run's co-motion hypothesis
+    # (None: none found)
     comotion: Mapping[tuple[str, str], WholeRunH | None] = field(default_factory=dict)
 
     def cue_meta(self, frames: np.ndarray, metas: np.ndarray) -> np.ndarray:

@@ -298,18 +298,28 @@ def bootstrap_text(name: str, round_: Any) -> str:
     return text
 
 
-def whole_run_h_text(name: str, found: Any, min_share: float) -> str:
-    """One line telling what the whole-run labels did for a pair that ended the run with no
-    homography (``found``: its :class:`~mvtrack.stages.resolve.WholeRunH` or None)."""
-    text = f"whole-run labels: pair {name} learned no homography; a co-motion search over the run"
+def whole_run_h_text(name: str, found: Any, learned: bool, min_share: float) -> str:
+    """One line telling what the whole-run labels did with a pair's whole-run co-motion
+    search (``found``: its :class:`~mvtrack.stages.resolve.WholeRunH` or None; ``learned``:
+    the run ended with a homography)."""
+    text = f"whole-run labels: pair {name}: a co-motion search over the run"
+    keep = "the labels use the run's final H" if learned else "the labels keep the run's links"
     if found is None:
-        return text + " found none either: the labels keep the run's own links"
-    share = "none" if found.found_share is None else f"{found.found_share:.0%}"
-    verdict = ("the labels use it" if found.used
-               else f"under {min_share:.0%}: not used, the labels keep the run's own links")
-    return (text + f" links [{_links_text(found.hypothesis.links)}] "
-            f"({len(found.hypothesis.markers)} candidates); of the targets its H puts inside "
-            f"the other camera, {share} find one there: {verdict}")
+        return f"{text} found no homography; {keep}"
+    text += (f" links [{_links_text(found.hypothesis.links)}] "
+             f"({len(found.hypothesis.markers)} candidates); of the targets its H puts inside "
+             f"the other camera, {_share(found.found_share)} find one there")
+    if learned:
+        text += f" ({_share(found.final_share)} with the run's final H)"
+    if found.used:
+        return text + (": the labels use it instead" if learned else ": the labels use it")
+    if not learned and (found.found_share or 0.0) < min_share:
+        return f"{text}: under {min_share:.0%}, {keep}"
+    return f"{text}: {keep}"
+
+
+def _share(share: float | None) -> str:
+    return "none" if share is None else f"{share:.0%}"
 
 
 def _log_bootstrap(sink: RerunSink, key: tuple[str, str], pr: Any) -> None:

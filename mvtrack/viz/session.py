@@ -84,9 +84,10 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
     written = {"": final}
     if res is not None:
         sink.log_resolved(kept, res.meta, done, res.switches)
+        learned = {tuple(p["cameras"]): p["H"] is not None for p in summary.pairs}
         for pair, found in res.comotion.items():
-            sink.event(whole_run_h_text(paths.pair_name(*pair), found,
-                                        params.resolve.comotion_min_found_share))
+            sink.event(whole_run_h_text(paths.pair_name(*pair), found, learned[pair],
+                                        params.resolve.whole_run_h_min_found_share))
         written["_online"] = kept
     if params.feet.smooth_seconds > 0:
         sink.log_final_feet(final, done)
