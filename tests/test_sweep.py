@@ -54,7 +54,8 @@ def _metrics(idf1: float, p90: float | None) -> dict:
               "fov_lines": [{"learned": True, "visible_length_px": 80, "error_px_mean": 4.5},
                             {"learned": True, "visible_length_px": 20, "error_px_mean": 30.0}]}
     no_h = {"first_valid_H": None, "transfer_error_px": {"median": None, "p90": None},
-            "fov_lines": [{"learned": False, "visible_length_px": 90, "error_px_mean": None}]}
+            "fov_lines": [{"learned": False, "visible_length_px": 90, "error_px_mean": None}],
+            "whole_run_h_used": True}
     return {
         "cameras": {"cam0": {"recall": 0.96, "precision": 0.94, "foot_error_px_median": 3.6},
                     "cam1": {"recall": 0.93, "precision": 0.97, "foot_error_px_median": 2.5}},
@@ -74,7 +75,7 @@ def test_summary_row_takes_the_worst_camera_and_pair() -> None:
         0.93, 0.94, 3.6)
     assert (row["h_median_px_max"], row["h_p90_px_max"], row["h_first_frame_max"]) == (
         2.0, 4.5, 125)
-    assert row["pairs_without_h"] == 1
+    assert row["pairs_without_h"] == 1 and row["whole_run_h_used"] == 1
     assert row["fov_line_px_max"] == 4.5  # the 20 px line is too short to judge
     assert row["occlusion_recovery"] is None  # NaN: no occlusion episode
 

@@ -257,6 +257,7 @@ def pair_metrics(
                 "first_valid_H": first,
                 "markers": pair.get("markers"),
                 "fov_events": pair.get("fov_events"),
+                "whole_run_h_used": bool((pair.get("H_whole_run") or {}).get("used")),
             }
         )
     return out
