@@ -587,8 +587,11 @@ def test_a_pair_without_h_is_resolved_with_the_whole_runs_co_motion_h(tmp_path) 
     assert err.max() < 1.0
 
 
-def test_without_the_whole_run_search_a_pair_without_h_keeps_its_own_links(tmp_path) -> None:
-    rows, pairs = _finish(tmp_path, ["resolve.whole_run_h=false"])
+@pytest.mark.parametrize("off", ["resolve.whole_run_h=false", "matcher.method=fov"])
+def test_without_the_whole_run_search_a_pair_without_h_keeps_its_own_links(tmp_path,
+                                                                          off: str) -> None:
+    """Turned off, or with the FOV-only baseline (which must not use a homography)."""
+    rows, pairs = _finish(tmp_path, [off])
     metas = _meta_of(rows, rows.meta)
     assert all(metas["cam0", k] != metas["cam1", k] for k in (1, 2, 3))
     assert "H_whole_run" not in pairs[0]  # the stale key of an earlier finish is gone
