@@ -140,16 +140,21 @@ def _walk(labels_a, labels_b, feet_a, shift=(200.0, 10.0)):
     return a, b
 
 
-def _pool(n_people: int, frames: int = 100) -> Candidates:
-    """Candidates from ``n_people`` walking on distinct straight paths, all seen by both."""
-    cfg = MarkerConfig()
-    pool = Candidates.empty()
+def _walking(n_people: int, frames: int = 100
+             ) -> list[tuple[int, CameraTargets, CameraTargets]]:
+    """(frame, A, B) of ``n_people`` walking on distinct straight paths, all seen by both."""
     rng = np.random.default_rng(3)
     starts = rng.uniform([100, 100], [300, 300], (n_people, 2))
     vel = rng.uniform(-1.0, 1.0, (n_people, 2))
-    for f in range(0, frames, cfg.marker_every_frames):
-        feet = starts + f * vel
-        a, b = _walk(np.arange(n_people) + 1, np.arange(n_people) + 101, feet)
+    return [(f, *_walk(np.arange(n_people) + 1, np.arange(n_people) + 101, starts + f * vel))
+            for f in range(frames)]
+
+
+def _pool(n_people: int, frames: int = 100) -> Candidates:
+    """The candidates of :func:`_walking` (every marker frame)."""
+    cfg = MarkerConfig()
+    pool = Candidates.empty()
+    for f, a, b in _walking(n_people, frames):
         pool = candidates_add(pool, a, b, cfg, f)
     return pool
 
@@ -192,16 +197,11 @@ def test_comotion_of_a_whole_run_pools_every_candidate_but_those_of_shrunk_targe
     of 80 candidates) and, as in the bootstrap, A's target 1 is left out while it is a third
     shorter than the median of its last 10 heights: 20 px from frame 40 on, it is left out at
     marker frame 40; at 45 its median is 20 px too."""
-    rng = np.random.default_rng(3)
-    starts = rng.uniform([100, 100], [300, 300], (4, 2))
-    vel = rng.uniform(-1.0, 1.0, (4, 2))
     run = []
-    for f in range(100):
-        a, b = _walk(np.arange(4) + 1, np.arange(4) + 101, starts + f * vel)
-        if 40 <= f < 50:
-            a = CameraTargets(a.labels, a.feet, np.r_[20.0, a.heights_px[1:]], a.boxes_xywh,
-                              a.size)
-        run.append((f, a, b))
+    for f, a, b in _walking(4):
+        shrunk = CameraTargets(a.labels, a.feet, np.r_[20.0, a.heights_px[1:]], a.boxes_xywh,
+                               a.size)
+        run.append((f, shrunk if 40 <= f < 50 else a, b))
     found = comotion_of_run(run, MarkerConfig(comotion_pool_size=20), seed=0)
     assert found is not None and found.links == ((1, 101), (2, 102), (3, 103), (4, 104))
     per_pair = Counter((m.a_label, m.b_label) for m in found.markers)
@@ -214,12 +214,8 @@ def test_comotion_of_a_whole_run_can_pool_targets_cut_by_the_top_border() -> Non
     """A's target 3 walks along the top border, its box cut by it (feet in view): with
     ``top_cut`` its pair is pooled and the three true pairs are found; without, two remain,
     too few for a hypothesis."""
-    rng = np.random.default_rng(3)
-    starts = rng.uniform([100, 100], [300, 300], (3, 2))
-    vel = rng.uniform(-1.0, 1.0, (3, 2))
     run = []
-    for f in range(100):
-        a, b = _walk(np.arange(3) + 1, np.arange(3) + 101, starts + f * vel)
+    for f, a, b in _walking(3):
         boxes = a.boxes_xywh.copy()
         boxes[2, 1], boxes[2, 3] = 0.0, boxes[2, 1] + boxes[2, 3]  # from the top row down
         run.append((f, CameraTargets(a.labels, a.feet, a.heights_px, boxes, a.size), b))
