@@ -46,6 +46,7 @@ __all__ = [
     "markers_add",
     "markers_init",
     "not_shrunk",
+    "poolable",
 ]
 
 
@@ -143,6 +144,18 @@ def not_shrunk(
     now = _update_heights(history, targets, cfg.height_window_frames)
     return np.array([now[label][-1] >= (1 - cfg.height_tolerance) * float(np.median(now[label]))
                      for label in targets.labels.tolist()], bool)
+
+
+def poolable(
+    heights: tuple[dict[int, tuple[float, ...]], dict[int, tuple[float, ...]]],
+    a: CameraTargets, b: CameraTargets, cfg: MarkerConfig,
+) -> tuple[CameraTargets, CameraTargets]:
+    """The targets the co-motion pool may take this frame: with ``comotion_height_test``,
+    those not shrunk (:func:`not_shrunk`) against their cameras' height ``heights``. A blob
+    that lost its legs has its feet off: it fits no H."""
+    if not cfg.comotion_height_test:
+        return a, b
+    return a.subset(not_shrunk(heights[0], a, cfg)), b.subset(not_shrunk(heights[1], b, cfg))
 
 
 def _cell(x_a: tuple[float, float], size_a: tuple[int, int], cfg: MarkerConfig) -> int:
@@ -575,19 +588,15 @@ def comotion_of_run(
     (frame, A targets, B targets) for every frame in order; candidates are pooled as the
     bootstrap pools them (marker frames, fully inside, or but for the top with ``top_cut``, no
     target shorter than its recent median with ``comotion_height_test``) but the pool is not
-    bounded. For pairs that end a run without a homography (whole-run labels,
-    `stages/resolve.py`): the bootstrap's held-out check needs candidates after the search,
-    and a run can end first (generated 'three' seeds 7 and 10 found their three true pairs
-    at frame 575 of 600)."""
+    bounded. For the whole-run labels (`pipeline.resolve_rows`): a pair can end a run without
+    a homography, as the bootstrap's held-out check needs candidates after the search and a
+    run can end first (generated 'three' seeds 7 and 10 found their three true pairs at
+    frame 575 of 600), or with one gone wrong late."""
     parts = [Candidates.empty()]
     heights: tuple[dict[int, tuple[float, ...]], dict[int, tuple[float, ...]]] = ({}, {})
     for frame, a, b in run:
         if frame % cfg.marker_every_frames == 0:
-            tall = (a, b)
-            if cfg.comotion_height_test:
-                tall = (a.subset(not_shrunk(heights[0], a, cfg)),
-                        b.subset(not_shrunk(heights[1], b, cfg)))
-            new = _frame_candidates(*tall, cfg, frame, top_cut=top_cut)
+            new = _frame_candidates(*poolable(heights, a, b, cfg), cfg, frame, top_cut=top_cut)
             parts += [] if new is None else [new]
         heights = (_update_heights(heights[0], a, cfg.height_window_frames),
                    _update_heights(heights[1], b, cfg.height_window_frames))

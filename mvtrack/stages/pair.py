@@ -47,7 +47,7 @@ from mvtrack.stages.markers import (
     marker_step,
     markers_add,
     markers_init,
-    not_shrunk,
+    poolable,
 )
 from mvtrack.stages.matcher import transfer_costs
 from mvtrack.stages.targets import SIDES, CameraTargets
@@ -508,10 +508,8 @@ def _bootstrap(
     if mcfg.comotion_min_pairs == 0:
         return Candidates.empty(), (), links, state.markers, [], None
     a, b = cams
-    # a blob that lost its legs has its feet off: it fits no H (only marker frames pool)
-    if mcfg.comotion_height_test and frame % mcfg.marker_every_frames == 0:
-        a = a.subset(not_shrunk(state.markers.heights_a, a, mcfg))
-        b = b.subset(not_shrunk(state.markers.heights_b, b, mcfg))
+    if frame % mcfg.marker_every_frames == 0:  # only marker frames pool
+        a, b = poolable((state.markers.heights_a, state.markers.heights_b), a, b, mcfg)
     pool = candidates_add(state.candidates, a, b, mcfg, frame, state.refuted)
     if state.homography:
         return pool, (), links, state.markers, [], None

@@ -179,13 +179,10 @@ def camera_frames(rows: Rows, names: tuple[str, str], sizes: Mapping[str, tuple[
                   ) -> Iterator[tuple[int, CameraTargets, CameraTargets]]:
     """(frame, A targets, B targets) of two cameras for every frame from the rows' first to
     their last (a camera without targets in a frame gives none): the run as a pair saw it."""
-    if not len(rows.frame):
-        return
-    first, last = int(rows.frame.min()), int(rows.frame.max())
-    order = np.argsort(rows.frame, kind="stable")
-    bounds = np.searchsorted(rows.frame[order], np.arange(first, last + 2))
-    for k, frame in enumerate(range(first, last + 1)):
-        chunk = order[bounds[k]:bounds[k + 1]]
+    chunks = {int(rows.frame[c[0]]): c for c in _frames(rows)}
+    none = np.zeros(0, np.int64)
+    for frame in range(min(chunks, default=0), max(chunks, default=-1) + 1):
+        chunk = chunks.get(frame, none)
         a, b = (chunk[rows.camera[chunk] == name] for name in names)
         yield frame, _targets(rows, a, sizes[names[0]]), _targets(rows, b, sizes[names[1]])
 
