@@ -381,6 +381,34 @@ def test_what_is_left_of_a_tracked_person_stays_an_mvo(frac: float) -> None:
         assert small.any() == (t >= 5) and not r.blobs.is_mvo[small].any(), t
 
 
+@pytest.mark.parametrize("keep", [True, False])
+def test_a_person_entering_slowly_is_not_learned_as_background(keep: bool) -> None:
+    """A thin person slides into view down from the top border at 1/3 px per frame: under
+    T_area = 100 px for 45 frames, a border mover. Kept out of B's update (the default) they are
+    one whole MVO once large enough; learned meanwhile (the thesis) their top is background."""
+    rng = np.random.default_rng(6)
+    ground, person = _ground(rng), _person(rng)[:, :6]  # 30x6
+    cfg = dataclasses.replace(CFG, keep_border_movers=keep)
+    state = _train(ground, rng, cfg=cfg)
+    movers = []
+    for t in range(80):
+        rows = min(30, 1 + t // 3)
+        frame = _paste(ground, person[-rows:], 70, 0)
+        state, r = background_step(state, _noisy(frame, rng), cfg)
+        movers.append(int(r.border_mover_mask.sum()))
+        assert r.blobs.border_mover.any() == r.border_mover_mask.any(), t
+    visible = 6 * rows
+    assert visible > 1.5 * CFG.min_area_px
+    top = np.abs(state.background[:5, 70:76].astype(int) - ground[:5, 70:76].astype(int))
+    if keep:
+        assert min(movers[30:42]) > 0.8 * 6 * (1 + 30 // 3)  # all of the person, under T_area
+        assert r.blobs.is_mvo.sum() == 1 and r.mvo_mask.sum() >= 0.9 * visible
+        assert top.mean() < 10  # B still has the ground where the person's head came in
+    else:
+        assert r.mvo_mask.sum() < 0.5 * visible
+        assert top.mean() > 40  # B learned the person
+
+
 def test_walkers_crossing_in_one_blob_move_by_frame_difference() -> None:
     """Two people walking in opposite directions in one blob: their flow cancels, their
     pixels change."""
@@ -484,8 +512,9 @@ def test_result_masks_are_consistent() -> None:
     r = _run_moving("rgb")[-1]
     assert r.distance.dtype == np.float32 and 0 <= r.distance.min() <= r.distance.max() <= 1
     assert np.array_equal(r.candidate, r.blob_labels > 0)
-    assert not (r.mvo_mask & r.ghost_mask).any()
-    assert np.array_equal(r.mvo_mask | r.ghost_mask, r.candidate)
+    assert not (r.mvo_mask & r.ghost_mask).any() and not (r.border_mover_mask & r.ghost_mask).any()
+    assert not (r.mvo_mask & r.border_mover_mask).any()
+    assert np.array_equal(r.mvo_mask | r.ghost_mask | r.border_mover_mask, r.candidate)
     assert not (r.candidate & r.shadow).any()
     b = r.blobs
     assert np.array_equal(b.label, np.arange(1, len(b) + 1))

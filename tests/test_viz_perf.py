@@ -114,8 +114,9 @@ def test_image_thread_errors_reach_the_caller(scene: Path, tmp_path: Path,
 
 
 def _reference_codes(masks: list[np.ndarray]) -> np.ndarray:
-    mvo, ghost, fg, gs = masks
+    mvo, ghost, fg, gs, mover = masks
     codes = np.zeros(mvo.shape, np.uint8)
+    codes[mover] = 5
     codes[gs] = 4
     codes[fg] = 3
     codes[ghost] = 2
@@ -125,13 +126,13 @@ def _reference_codes(masks: list[np.ndarray]) -> np.ndarray:
 
 def test_masks_layer_codes_follow_the_layer_priority() -> None:
     rng = np.random.default_rng(3)
-    masks = [rng.random((37, 53)) < p for p in (0.2, 0.3, 0.4, 0.5)]
+    masks = [rng.random((37, 53)) < p for p in (0.2, 0.3, 0.4, 0.5, 0.5)]
     seg = masks_layer(*masks)
     assert seg.buffer is not None
     got = np.array(seg.buffer.as_arrow_array().to_pylist()[0], np.uint8).reshape(37, 53)
     want = _reference_codes(masks)
     assert np.array_equal(got, want)
-    assert set(np.unique(got).tolist()) == {0, 1, 2, 3, 4}
+    assert set(np.unique(got).tolist()) == {0, 1, 2, 3, 4, 5}
     assert got[masks[0]].tolist() == [1] * int(masks[0].sum())
 
 

@@ -16,7 +16,7 @@ Per frame, against the current background B:
    (across small gaps: below).
 5. Selective update: the frame with MVO and foreground-shadow pixels replaced by B is pushed into
    the FIFO; the new B is the median of n FIFO frames spaced m apart (the newest and every m-th
-   older one). Ghosts are not masked, so the median absorbs them.
+   older one). Ghosts are not masked, so the median absorbs them (but see border movers below).
 
 Choices beyond the thesis (each with its config field):
 
@@ -51,6 +51,12 @@ Choices beyond the thesis (each with its config field):
   specks (texture, noise, the legs between): unconnected to the MVO, they were ghost shadows,
   went into the FIFO, and a slow walker left a dark trail of its shadow in B. A shadow pixel
   reaches an MVO across gaps of up to ``fg_shadow_gap_px`` (:func:`_split_shadows`).
+- **Border movers stay out of B.** A blob that passes every MVO test but T_area is not an MVO
+  (the tracker never sees it) and, in the thesis, not kept out of the update either. A person
+  entering slowly across a border stays under T_area for longer than the median needs (about
+  n·m/2 frames), is learned as background meanwhile, and is a ghost once whole. Such blobs
+  touching the frame border are kept out of the update (``keep_border_movers``); inside the
+  frame they are left to the thesis's rule (pieces of people, whom the MVO hold covers).
 - **FIFO length.** The newest frame and every m-th older one are the n samples, so the FIFO
   keeps (n − 1)·m + 1 frames (the thesis sizes it n·m; the extra frames are never selected).
 - **Median.** Exact lower median (:mod:`mvtrack.stages.median`): 2.5 ms for n = 8 at 768×576×3.
@@ -215,6 +221,9 @@ class BlobTable:
                   small one must be the largest piece of a last-frame MVO that no full-size
                   MVO overlaps
     is_mvo:       (K,) bool, (area_ok & strong_ok & edge_ok & moving_ok) | held
+    border_mover: (K,) bool, not an MVO but strong_ok & edge_ok & moving_ok (so under T_area)
+                  and touching the frame border: someone coming in or going out piece by piece;
+                  not tracked, and kept out of B's update with ``keep_border_movers``
     mvo_label:    (K,) int32, the blob's value in ``mvo_labels`` (0 for ghosts)
     box_xywh:     (K, 4) float64, bounding box; x, y are the left/top pixel edges (col - 0.5)
     min_area_px:  float, the T_area this frame size used (:func:`min_area_at`)
@@ -236,6 +245,7 @@ class BlobTable:
     edge_ok: np.ndarray
     held: np.ndarray
     is_mvo: np.ndarray
+    border_mover: np.ndarray
     mvo_label: np.ndarray
     box_xywh: np.ndarray
     min_area_px: float = 0.0
@@ -259,7 +269,10 @@ class BackgroundResult:
     mvo_labels:     int32, 0 none, 1..M the MVO blobs, consecutive in blob-label order, with
                     the legs grown back (:func:`_regrow_legs`; those may lie outside
                     ``candidate``)
-    ghost_mask:     bool, pixels of candidate blobs that are not MVOs
+    ghost_mask:     bool, pixels of candidate blobs that are neither MVOs nor border movers
+    border_mover_mask: bool, pixels of the border movers (blobs under T_area that pass the
+                    other tests and touch the frame border); with ``keep_border_movers`` B
+                    does not learn them
     fg_shadow:      bool, shadow pixels connected (8-neighbourhood, through shadow) to an MVO
     ghost_shadow:   bool, the other shadow pixels
     blobs:          per-blob table
@@ -273,6 +286,7 @@ class BackgroundResult:
     blob_labels: np.ndarray
     mvo_labels: np.ndarray
     ghost_mask: np.ndarray
+    border_mover_mask: np.ndarray
     fg_shadow: np.ndarray
     ghost_shadow: np.ndarray
     blobs: BlobTable
@@ -480,6 +494,15 @@ def _mvo_labels(
     return mvo_labels, mvo_index
 
 
+def _blob_mask(pixels: _BlobPixels, chosen: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """(H,W) bool, the pixels of the blobs with ``chosen`` (K,) bool set."""
+    mask = np.zeros(shape, bool)
+    if chosen.any():
+        pick = np.concatenate([[False], chosen])[pixels.label]
+        mask.ravel()[pixels.index[pick]] = True
+    return mask
+
+
 @dataclass(frozen=True, eq=False)
 class _Motion:
     """What the motion tests read: DIS flow (h,w,2) float32 px/frame and the changed map (h,w)
@@ -617,11 +640,19 @@ def _area_thresholds(stats: np.ndarray, sizes: SizeModel, min_area_px: float,
     return np.clip(scaled, min(cfg.size_min_area_px, min_area_px), min_area_px)
 
 
+def _inside(box_xywh: np.ndarray, shape: tuple[int, ...]) -> np.ndarray:
+    """(K,) bool: the (K, 4) boxes (x, y at the pixel edges) touch no border of a frame of
+    ``shape`` (none of their pixels is in the first or last row or column)."""
+    x, y, w, h = box_xywh.T
+    return (x > 0) & (y > 0) & (x + w < shape[1] - 1) & (y + h < shape[0] - 1)
+
+
 def _blob_table(
     stats: np.ndarray, ev: _BlobEvidence, cfg: BackgroundConfig, min_area_px: float,
-    thresholds: np.ndarray,
+    thresholds: np.ndarray, shape: tuple[int, ...],
 ) -> tuple[BlobTable, np.ndarray]:
-    """The blob table and each blob's new MVO age (K,) int64 (0 for ghosts)."""
+    """The blob table and each blob's new MVO age (K,) int64 (0 for ghosts); ``shape`` is the
+    frame's."""
     k = stats.shape[0] - 1
     area = stats[1:, cv2.CC_STAT_AREA].astype(np.int64)
     area_ok = area > thresholds
@@ -662,6 +693,7 @@ def _blob_table(
         edge_ok=edge_ok,
         held=held,
         is_mvo=is_mvo,
+        border_mover=~is_mvo & strong_ok & edge_ok & moving_ok & ~_inside(box, shape),
         mvo_label=mvo_label,
         box_xywh=box,
         min_area_px=min_area_px,
@@ -1009,14 +1041,12 @@ def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
     person = blobs.strong_ok & blobs.edge_ok & blobs.moving_ok & (
         blobs.area_px >= cfg.size_min_area_px)
     box = blobs.box_xywh[blobs.is_mvo | person]
-    height, width = shape[0], shape[1]
-    inside = (box[:, 0] > 0) & (box[:, 1] > 0) & (box[:, 0] + box[:, 2] < width - 1) & (
-        box[:, 1] + box[:, 3] < height - 1)
+    inside = _inside(box, shape)
     aspect = box[:, 3] / np.maximum(box[:, 2], 1.0)
     keep = inside & (aspect >= cfg.size_min_aspect) & (aspect <= cfg.size_max_aspect)
     new = np.c_[box[keep, 1] + box[keep, 3], box[keep, 3]]
     samples = _readonly(np.concatenate([sizes.samples, new])[-cfg.size_samples :])
-    fit = None if frame_index % cfg.size_refit_frames else _fit_sizes(samples, height, cfg)
+    fit = None if frame_index % cfg.size_refit_frames else _fit_sizes(samples, shape[0], cfg)
     # A line is not given up when the newest samples crowd into a few rows (or a refit
     # fails): it still holds where people walked before.
     if fit is None or (sizes.line is not None and fit.line is None):
@@ -1095,7 +1125,7 @@ def background_step(
     )
     min_area = min_area_at(candidate.shape, cfg)
     thresholds = _area_thresholds(stats, state.sizes, min_area, cfg)
-    blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds)
+    blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds, candidate.shape)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     if _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, cfg):
@@ -1103,7 +1133,9 @@ def background_step(
         shadow = shadow & ~mvo
         mvo_index = np.flatnonzero(mvo)
     fg_shadow = _split_shadows(shadow, mvo, mvo_index, cfg.fg_shadow_gap_px)
-    fifo, model, shared = _update(state, frame, mvo | fg_shadow, cfg)
+    mover = _blob_mask(pixels, blobs.border_mover, candidate.shape)
+    keep_out = mvo | fg_shadow | mover if cfg.keep_border_movers else mvo | fg_shadow
+    fifo, model, shared = _update(state, frame, keep_out, cfg)
     result = BackgroundResult(
         frame_index=state.frame_index,
         background_bgr=state.model.bgr,
@@ -1112,7 +1144,8 @@ def background_step(
         candidate=candidate,
         blob_labels=blob_labels,
         mvo_labels=mvo_labels,
-        ghost_mask=candidate & ~mvo,
+        ghost_mask=candidate & ~mvo & ~mover,
+        border_mover_mask=mover,
         fg_shadow=fg_shadow,
         ghost_shadow=shadow & ~fg_shadow,
         blobs=blobs,

@@ -27,6 +27,7 @@ MASK_COLORS = {
     2: (60, 140, 255),  # ghost: blue
     3: (255, 200, 0),  # foreground shadow: amber
     4: (150, 90, 220),  # ghost shadow: violet
+    5: (255, 120, 200),  # border mover (kept out of B, not tracked): pink
 }
 """RGB colour of each class of the mask layer (:data:`mvtrack.viz.paths.MASK_LAYER`)."""
 

@@ -42,11 +42,11 @@ _HALF_PX = 0.5  # mvtrack pixel centres are integers; Rerun's are at +0.5
 
 
 def _mask_codes() -> np.ndarray:
-    """(256,) uint8: bit set (1 MVO, 2 ghost, 4 fg shadow, 8 ghost shadow) -> the layer's code,
-    the first of MVO, ghost, foreground shadow, ghost shadow that is set (0: none)."""
+    """(256,) uint8: bit set (1 MVO, 2 ghost, 4 fg shadow, 8 ghost shadow, 16 border mover) ->
+    the layer's code (:data:`paths.MASK_LAYER`), the first of those that is set (0: none)."""
     table = np.zeros(256, np.uint8)
-    for bits in range(16):
-        table[bits] = next((code for code in (1, 2, 3, 4) if bits & (1 << (code - 1))), 0)
+    for bits in range(32):
+        table[bits] = next((code for code in (1, 2, 3, 4, 5) if bits & (1 << (code - 1))), 0)
     return table
 
 
@@ -128,13 +128,15 @@ def distance_layer(distance_u8: np.ndarray, opts: ImageOptions) -> rr.AsComponen
 
 
 def masks_layer(mvo: np.ndarray, ghost: np.ndarray, fg_shadow: np.ndarray,
-                ghost_shadow: np.ndarray) -> rr.SegmentationImage:
-    """One coded (H,W) uint8 image of the four (H,W) bool masks (:data:`paths.MASK_LAYER`)."""
-    bits = [np.ascontiguousarray(m).view(np.uint8) for m in (mvo, ghost, fg_shadow, ghost_shadow)]
-    # bool -> 0/1 bytes, one bit per mask: m0 + 2 m1 + 4 m2 + 8 m3 in three OpenCV calls (exact
-    # small integers; 0.43 ms against 0.72 for shifts and ors at 768x576)
+                ghost_shadow: np.ndarray, border_mover: np.ndarray) -> rr.SegmentationImage:
+    """One coded (H,W) uint8 image of the five (H,W) bool masks (:data:`paths.MASK_LAYER`)."""
+    bits = [np.ascontiguousarray(m).view(np.uint8)
+            for m in (mvo, ghost, fg_shadow, ghost_shadow, border_mover)]
+    # bool -> 0/1 bytes, one bit per mask: m0 + 2 m1 + 4 m2 + 8 m3 + 16 m4 in four OpenCV calls
+    # (exact small integers; 0.43 ms against 0.72 for shifts and ors at 768x576, four masks)
     packed = cv2.add(cv2.addWeighted(bits[0], 1.0, bits[1], 2.0, 0.0),
                      cv2.addWeighted(bits[2], 4.0, bits[3], 8.0, 0.0))
+    packed = cv2.addWeighted(packed, 1.0, bits[4], 16.0, 0.0)
     codes = np.asarray(cv2.LUT(packed, _MASK_CODES), np.uint8)
     return segmentation_image(codes, opacity=0.6, draw_order=-5.0)
 
@@ -173,9 +175,12 @@ def metas_image(label_image: np.ndarray, labels: np.ndarray, metas: np.ndarray) 
     return np.take(lut, label_image)
 
 
-def blobs_layer(boxes_xywh: np.ndarray, is_mvo: np.ndarray) -> rr.Boxes2D:
-    """Candidate blobs' boxes, MVOs red and ghosts blue (values ride along as AnyValues)."""
-    colors = np.where(is_mvo[:, None], MASK_COLORS[1], MASK_COLORS[2]).astype(np.uint8)
+def blobs_layer(boxes_xywh: np.ndarray, is_mvo: np.ndarray,
+                border_mover: np.ndarray) -> rr.Boxes2D:
+    """Candidate blobs' boxes in their mask class's colour: MVOs red, border movers pink,
+    ghosts blue (values ride along as AnyValues)."""
+    code = np.where(is_mvo, 1, np.where(border_mover, 5, 2))
+    colors = np.array([MASK_COLORS[c] for c in code.tolist()], np.uint8).reshape(-1, 3)
     return rr.Boxes2D(array=boxes_xywh, array_format=rr.Box2DFormat.XYWH, colors=colors,
                       radii=0.5, draw_order=5.0)
 

@@ -16,7 +16,8 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/background       EncodedImage or Image: the background B (every N frames)
     /cameras/{cam}/distance         EncodedImage: D_B in [0, 1] as gray (black 0, white 1)
     /cameras/{cam}/masks            SegmentationImage: 1 MVO, 2 ghost, 3 foreground shadow,
-                                    4 ghost shadow (legend: its own AnnotationContext)
+                                    4 ghost shadow, 5 border mover (legend: its own
+                                    AnnotationContext)
     /cameras/{cam}/labels           SegmentationImage: each target's pixels hold its meta id
     /cameras/{cam}/blobs            Boxes2D + AnyValues: candidate blobs, hover shows area_px,
                                     area_threshold_px (T_area at the blob's row), max_distance,
@@ -157,7 +158,8 @@ CAMERA_PAIR_LAYERS = ("fov_lines", "fov_names", "markers", "projected")
 PAIR_LAYERS = ("quality_px", "markers", "links")
 """Scalar series of a pair: ``/pairs/{a}-{b}/{layer}``."""
 
-MASK_LAYER = {1: "MVO", 2: "ghost", 3: "foreground shadow", 4: "ghost shadow"}
+MASK_LAYER = {1: "MVO", 2: "ghost", 3: "foreground shadow", 4: "ghost shadow",
+              5: "border mover"}
 """Class ids of ``/cameras/{cam}/masks``."""
 
 

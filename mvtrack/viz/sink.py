@@ -340,7 +340,7 @@ class RerunSink:
                 out.append(("distance", distance_layer(bg.distance_u8, opts.images)))
             if opts.masks:
                 out.append(("masks", masks_layer(bg.mvo_mask, bg.ghost_mask, bg.fg_shadow,
-                                                 bg.ghost_shadow)))
+                                                 bg.ghost_shadow, bg.border_mover_mask)))
         tracks = cam.tracks
         if opts.labels and tracks.label_image is not None:
             out.append(("labels", segmentation_image(
@@ -381,9 +381,11 @@ class RerunSink:
                               area_threshold_px=blobs.area_threshold_px.astype(np.float64),
                               max_distance=blobs.max_distance.astype(np.float64),
                               mean_flow_px=blobs.mean_flow_px.astype(np.float64),
-                              is_mvo=blobs.is_mvo.astype(bool))] if len(boxes) else []
+                              is_mvo=blobs.is_mvo.astype(bool),
+                              border_mover=blobs.border_mover.astype(bool))] if len(boxes) else []
         # (Rerun warns on an empty AnyValues: a frame without blobs has nothing to hover)
-        self.rec.log(paths.camera_layer(name, "blobs"), blobs_layer(boxes, blobs.is_mvo), *hover)
+        self.rec.log(paths.camera_layer(name, "blobs"),
+                     blobs_layer(boxes, blobs.is_mvo, blobs.border_mover), *hover)
 
     def _tracker_events(self, name: str, cam: CameraResult) -> None:
         t = cam.tracks
