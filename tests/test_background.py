@@ -379,6 +379,7 @@ def test_what_is_left_of_a_tracked_person_stays_an_mvo(frac: float) -> None:
         state, r = background_step(state, _noisy(frame, rng), cfg)
         small = r.blobs.area_px < 100
         assert small.any() == (t >= 5) and not r.blobs.is_mvo[small].any(), t
+        assert not r.blobs.border_mover.any()  # inside the frame: left to the thesis's rule
 
 
 @pytest.mark.parametrize("keep", [True, False])

@@ -21,7 +21,7 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/labels           SegmentationImage: each target's pixels hold its meta id
     /cameras/{cam}/blobs            Boxes2D + AnyValues: candidate blobs, hover shows area_px,
                                     area_threshold_px (T_area at the blob's row), max_distance,
-                                    mean_flow_px, is_mvo
+                                    mean_flow_px, is_mvo, border_mover
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
                                     label "t{target} m{meta}", "· {enter|leave} {side}" added
                                     at a FOV event
