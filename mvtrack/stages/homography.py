@@ -28,6 +28,7 @@ __all__ = [
     "degeneracy_reason",
     "dlt",
     "fit_homography",
+    "fit_people_markers",
     "normalizing_transform",
     "solve_homographies",
     "solve_homography",
@@ -496,6 +497,28 @@ def fit_homography(  # noqa: PLR0913 (the markers, the settings, and what is kno
     inliers[np.flatnonzero(keep)[again.inliers]] = True
     return replace(again, n_markers=len(keep), inliers=inliers,
                    errors_px=transfer_errors(again.H_b_from_a, pts_a, pts_b))
+
+
+def fit_people_markers(  # noqa: PLR0913 (fit_homography's arguments and the heights)
+    pts_a: np.ndarray,
+    pts_b: np.ndarray,
+    heights_ab: np.ndarray,
+    cfg: HomographyConfig,
+    rng: np.random.Generator,
+    *,
+    groups: np.ndarray,
+    previous: np.ndarray | None = None,
+) -> HomographyEstimate | HomographyFailure:
+    """:func:`fit_homography` of markers dropped by people, ``heights_ab`` (N, 2) float64 px
+    their heights in A and B: the RANSAC threshold grows to ``ransac_threshold_heights`` of
+    their median height (never under ``ransac_threshold_px``) and the degeneracy area with the
+    median height in each camera."""
+    heights_ab = np.asarray(heights_ab, np.float64).reshape(-1, 2)
+    gate = max(cfg.ransac_threshold_px,
+               cfg.ransac_threshold_heights * float(np.median(heights_ab.mean(axis=1))))
+    heights = (float(np.median(heights_ab[:, 0])), float(np.median(heights_ab[:, 1])))
+    return fit_homography(pts_a, pts_b, replace(cfg, ransac_threshold_px=gate), rng,
+                          groups=groups, heights=heights, previous=previous)
 
 
 _WITHOUT = "without a wrong link: "

@@ -30,7 +30,7 @@ from mvtrack.stages.fov import FovEvent, FovSlot
 from mvtrack.stages.homography import (
     HomographyEstimate,
     HomographyFailure,
-    fit_homography,
+    fit_people_markers,
     solve_homography,
     transfer_errors,
 )
@@ -721,15 +721,10 @@ def _maybe_fit(
         return current, None
     pts_a, pts_b = marker_points(markers)
     h_ab = np.array([(m.h_a, m.h_b) for m in markers.cells.values()])
-    gate = max(cfg.ransac_threshold_px,
-               cfg.ransac_threshold_heights * float(np.median(h_ab.mean(axis=1))))
-    cfg = replace(cfg, ransac_threshold_px=gate)
     rng = np.random.default_rng([cfg.ransac_seed, frame])
-    groups = marker_groups(markers)
-    heights = (float(np.median(h_ab[:, 0])), float(np.median(h_ab[:, 1])))
     previous = current.H_b_from_a if isinstance(current, HomographyEstimate) else None
-    attempt = replace(fit_homography(pts_a, pts_b, cfg, rng, groups=groups, heights=heights,
-                                     previous=previous),
+    attempt = replace(fit_people_markers(pts_a, pts_b, h_ab, cfg, rng,
+                                         groups=marker_groups(markers), previous=previous),
                       from_frame=frame)
     return (attempt if attempt or not current else current), attempt
 
