@@ -1101,6 +1101,22 @@ class ResolveConfig(_Checked):
         0.05, "...and replaces the run's final H when its share is higher by more than this "
         "(1 = never)", 0.0, 1.0,
     )
+    # stages/refit.py. Generated sweep clips (105 pairs with H, seeds 0-11): the refit's p90
+    # transfer error against the true H is lower than the online H's by over 0.5 px on 58
+    # pairs and higher on 16 (always handed on). The share test keeps the online H on 10 of
+    # them: 6 of the 16 (the worst: 'three' s10 cam0-cam2 15.3 -> 41.5 px, 'tilted' s6 12.7
+    # -> 22.3, 'pillar' s11 10.9 -> 19.9; their shares drop 0.025-0.048) and 3 it would have
+    # improved ('three' s3 cam1-cam2 12.2 -> 6.7, share 0.970 -> 0.920). Over the pairs, the
+    # handed-on H's median p90 goes 6.3 -> 5.2 px (seeds 0-2), 7.9 -> 5.6 px (3-11).
+    refit_h: bool = param(
+        True, "after the whole-run labels, fit each pair's H again from every pair of targets "
+        "they join (pairs.json 'H_refit'), handed on (--geometry) unless it explains clearly "
+        "less than the H the labels used (refit_h_max_share_drop)",
+    )
+    refit_h_max_share_drop: float = param(
+        0.02, "...: largest drop of the share of projected targets that find one in the other "
+        "camera (1 = always hand the refit on)", 0.0, 1.0,
+    )
     # Looser than the matcher's gate: votes are counted over a target's whole life and need a
     # share of its frames, so a frame with the legs lost (0.5-1.0 heights) costs one vote.
     # Generated clips (600 f): 0.6 -> 1.0 raises doors consistency 0.88 -> 0.99 and pillar

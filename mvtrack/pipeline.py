@@ -67,6 +67,7 @@ from mvtrack.stages.pair import (
     pair_step,
     pair_summary,
 )
+from mvtrack.stages.refit import RefitH, refit_homography
 from mvtrack.stages.resolve import (
     Resolution,
     Rows,
@@ -344,23 +345,46 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     homographies (`pairs.json` objects); the FOV-only matcher resolves without them. With
     ``resolve.whole_run_h`` each pair's whole run is searched for a co-motion homography
     (:func:`whole_run_h`, in the resolution's ``comotion``), whose H is used instead where it
-    is found better."""
+    is found better. With ``resolve.refit_h`` each pair's H is then fitted again from the
+    resolved labels (:func:`refit_h`, in the resolution's ``refit``)."""
     use_h = params.matcher.method != "fov"
     sizes = {c.name: c.size for c in spec.cameras}
     final: list[tuple[str, str, np.ndarray | None]] = []
+    runs = {}
     comotion: dict[tuple[str, str], WholeRunH | None] = {}
     for p in pairs:
         a, b = p["cameras"]
         H = None if p["H"] is None else np.asarray(p["H"], np.float64)
+        runs[a, b] = list(camera_frames(rows, (a, b), sizes)) if use_h else []
         if use_h and params.resolve.whole_run_h:
-            found = comotion[a, b] = whole_run_h(list(camera_frames(rows, (a, b), sizes)), H,
-                                                 params)
+            found = comotion[a, b] = whole_run_h(runs[a, b], H, params)
             if found is not None and found.used:
                 H = found.hypothesis.H_b_from_a
         final.append((a, b, H))
     res = resolve_labels(rows, final, params.resolve, use_h=use_h, sizes=sizes,
                          overlaps=spec.overlaps)
-    return replace(res, comotion=comotion)
+    refit = {(a, b): refit_h(rows, res.meta, (a, b), sizes, H, runs[a, b], params=params)
+             for a, b, H in final if use_h and params.resolve.refit_h}
+    return replace(res, comotion=comotion, refit=refit)
+
+
+def refit_h(  # noqa: PLR0913 (the run, its labels, the pair, the H in use, thresholds)
+    rows: Rows, meta: np.ndarray, names: tuple[str, str], sizes: Mapping[str, tuple[int, int]],
+    H_in_use: np.ndarray | None, run: Sequence[tuple[int, CameraTargets, CameraTargets]], *,
+    params: Params,
+) -> RefitH:
+    """A pair's H fitted again from the whole-run labels ``meta`` (:func:`~mvtrack.stages.
+    refit.refit_homography`), and whether it is the H the run hands on: a valid refit is,
+    unless the share of the targets it projects into the other camera that find one there
+    (``run``: the pair's frames) is lower than that of the H the labels used
+    (``H_in_use``) by more than ``resolve.refit_h_max_share_drop``."""
+    est, markers = refit_homography(rows, meta, names, sizes, params.markers, params.homography)
+    share = (found_share(est.H_b_from_a, run, params.homography)
+             if isinstance(est, HomographyEstimate) else None)
+    in_use = None if H_in_use is None else found_share(H_in_use, run, params.homography)
+    used = bool(est) and (in_use is None or (share is not None and share
+                                             >= in_use - params.resolve.refit_h_max_share_drop))
+    return RefitH(est, len(markers), share, in_use, used)
 
 
 def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]],
@@ -428,30 +452,42 @@ def finish_results(out_dir: Path, pairs: Sequence[dict[str, Any]], params: Param
     """Rewrite a finished results directory's `tracks.csv` and `cues.csv` with
     :func:`finish_rows` (the streamed ones stay as `*_online.csv`; nothing to do with neither
     smoothing nor whole-run labels), and `pairs.json` with the whole-run homographies
-    (:func:`_with_whole_run_h`)."""
+    (:func:`_with_whole_run_geometry`)."""
     res = None
     if params.feet.smooth_seconds > 0 or params.resolve.labels == "whole_run":
         rows = read_tracks(Path(out_dir) / "tracks.csv")
         final, res = finish_rows(rows, pairs, params, spec)
         rewrite_tracks(out_dir, final, (lambda f, m: m) if res is None else res.cue_meta)
-    write_pairs(out_dir, [_with_whole_run_h(p, res) for p in pairs])
+    write_pairs(out_dir, [_with_whole_run_geometry(p, res) for p in pairs])
 
 
-def _with_whole_run_h(pair: dict[str, Any], res: Resolution | None) -> dict[str, Any]:
-    """A `pairs.json` object with ``H_whole_run`` as the resolution found it (:func:
+def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> dict[str, Any]:
+    """A `pairs.json` object with what the whole-run labels learned of its geometry, where
+    they were resolved with homographies. ``H_whole_run`` as the resolution found it (:func:
     `whole_run_h`): null (no hypothesis), or ``{"H", "links" ([A label, B label] pairs),
     "candidates" (its inliers), "found_share", "final_found_share" (of ``H``), "used"}``;
-    absent where not searched."""
-    pair = {k: v for k, v in pair.items() if k != "H_whole_run"}
+    ``H_refit`` (:func:`refit_h`): ``{"H" (null when the fit failed, with "reason"),
+    "markers", "inliers", "quality_px", "found_share", "in_use_found_share" (of the H the
+    labels used), "used" (the H handed on: `--geometry` takes it instead of ``H``)}``."""
+    pair = {k: v for k, v in pair.items() if k not in ("H_whole_run", "H_refit")}
     key = (pair["cameras"][0], pair["cameras"][1])
-    if res is None or key not in res.comotion:
-        return pair
-    found = res.comotion[key]
-    return pair | {"H_whole_run": None if found is None else {
-        "H": found.hypothesis.H_b_from_a.tolist(),
-        "links": [list(link) for link in found.hypothesis.links],
-        "candidates": len(found.hypothesis.markers), "found_share": found.found_share,
-        "final_found_share": found.final_share, "used": found.used}}
+    if res is not None and key in res.comotion:
+        found = res.comotion[key]
+        pair["H_whole_run"] = None if found is None else {
+            "H": found.hypothesis.H_b_from_a.tolist(),
+            "links": [list(link) for link in found.hypothesis.links],
+            "candidates": len(found.hypothesis.markers), "found_share": found.found_share,
+            "final_found_share": found.final_share, "used": found.used}
+    if res is not None and key in res.refit:
+        refit = res.refit[key]
+        est = refit.estimate
+        pair["H_refit"] = ({"H": est.H_b_from_a.tolist(), "inliers": int(est.inliers.sum()),
+                            "quality_px": est.quality_px}
+                           if isinstance(est, HomographyEstimate)
+                           else {"H": None, "reason": est.reason}) | {
+            "markers": refit.markers, "found_share": refit.found_share,
+            "in_use_found_share": refit.in_use_share, "used": refit.used}
+    return pair
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

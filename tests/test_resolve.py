@@ -10,7 +10,14 @@ import numpy as np
 import pytest
 
 from mvtrack.io import CameraSpec, ClipSpec
-from mvtrack.io.results import ResultsWriter, TrackRows, read_cues, read_tracks, rewrite_tracks
+from mvtrack.io.results import (
+    ResultsWriter,
+    TrackRows,
+    read_cues,
+    read_pairs,
+    read_tracks,
+    rewrite_tracks,
+)
 from mvtrack.params import HomographyConfig, ParamsError, ResolveConfig, load_params
 from mvtrack.pipeline import finish_results
 from mvtrack.stages.homography import apply_homography, transfer_errors
@@ -637,3 +644,47 @@ def test_found_share_of_the_true_and_of_a_wrong_homography() -> None:
     wrong = TRUE_H.copy()
     wrong[0, 2] += 60.0  # everyone projected 60 px (over a body height) to the right
     assert found_share(wrong, run, HomographyConfig()) < 0.1
+
+
+def _off_by(dx_px: float) -> np.ndarray:
+    """TRUE_H followed by a shift of ``dx_px`` along x in cam1."""
+    return np.array([[1.0, 0.0, dx_px], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]) @ TRUE_H
+
+
+def _walk_error(H: list) -> float:
+    """Largest transfer error (px) of ``H`` at the walks' ends."""
+    pts = np.array([w[0] for w in WALKS] + [w[1] for w in WALKS])
+    return float(transfer_errors(np.array(H), pts, apply_homography(TRUE_H, pts)).max())
+
+
+def test_the_pairs_h_is_fitted_again_from_the_whole_run_labels(tmp_path) -> None:
+    """The run ended with an H 6 px off (within the vote gate, so it joins each person's two
+    targets); fitted again on every marker frame where both targets are inside (three walks
+    of 200 frames, one in five: 120 markers) it is within a pixel of the true H, and handed
+    on (`--geometry` reads it)."""
+    rows, pairs = _finish(tmp_path, [], final_H=_off_by(6.0))
+    metas = _meta_of(rows, rows.meta)
+    assert all(metas["cam0", k] == metas["cam1", k] for k in (1, 2, 3))
+    refit = pairs[0]["H_refit"]
+    assert refit["markers"] == 120 and refit["inliers"] >= 115 and refit["used"]
+    assert refit["found_share"] >= refit["in_use_found_share"] - 0.02
+    assert _walk_error(pairs[0]["H"]) > 5.0 and _walk_error(refit["H"]) < 1.0
+    (learned,) = read_pairs(tmp_path / "pairs.json")
+    assert np.allclose(learned.H_b_from_a, refit["H"]) and learned.markers == 120
+
+
+def test_a_refit_without_markers_fails_with_a_reason_and_the_h_in_use_is_handed_on(
+        tmp_path) -> None:
+    """Markers every 10000 frames: one (the first person at frame 0), no refit."""
+    _, pairs = _finish(tmp_path, ["markers.marker_every_frames=10000"], final_H=_off_by(6.0))
+    refit = pairs[0]["H_refit"]
+    assert refit["H"] is None and refit["markers"] == 1 and not refit["used"]
+    assert "1 markers, need 4" in refit["reason"]
+    (learned,) = read_pairs(tmp_path / "pairs.json")
+    assert np.allclose(learned.H_b_from_a, pairs[0]["H"])
+
+
+@pytest.mark.parametrize("off", ["resolve.refit_h=false", "matcher.method=fov"])
+def test_no_refit_when_turned_off_or_for_the_fov_baseline(tmp_path, off: str) -> None:
+    _, pairs = _finish(tmp_path, [off], final_H=_off_by(6.0))
+    assert "H_refit" not in pairs[0]

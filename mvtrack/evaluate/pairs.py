@@ -12,7 +12,8 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
   that segment to the learned line, px (sides left, right, bottom: the top border of a camera
   images far ground, or the sky, where nobody's feet are);
 - FOV events and markers made before the first valid homography, and its frame;
-- the transfer error of ``H_whole_run`` too (the whole run's co-motion H), where there is one.
+- the transfer error of ``H_whole_run`` (the whole run's co-motion H) and ``H_refit`` (H fitted
+  again from the whole-run labels) too, where there is one.
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -186,6 +187,8 @@ def _transfer(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> dict[str, An
     out = {"points_from": source, "transfer_error_px": _errors(pair.get("H"), pts_a, pts_b)}
     if pair.get("H_whole_run") is not None:
         out["whole_run_transfer_error_px"] = _errors(pair["H_whole_run"]["H"], pts_a, pts_b)
+    if pair.get("H_refit") is not None:
+        out["refit_transfer_error_px"] = _errors(pair["H_refit"]["H"], pts_a, pts_b)
     return out
 
 
@@ -258,6 +261,7 @@ def pair_metrics(
                 "markers": pair.get("markers"),
                 "fov_events": pair.get("fov_events"),
                 "whole_run_h_used": bool((pair.get("H_whole_run") or {}).get("used")),
+                "refit_h_used": bool((pair.get("H_refit") or {}).get("used")),
             }
         )
     return out

@@ -263,7 +263,8 @@ def read_cues(path: Path) -> CueRows:
 class LearnedPair:
     """One pair's geometry as an earlier run learned it (an object of `pairs.json`).
 
-    cameras: (A, B); H_b_from_a: (3, 3) float64 or None; markers: markers behind H;
+    cameras: (A, B); H_b_from_a: (3, 3) float64 or None, the H the run handed on (its
+    ``H_refit`` where that is used, else ``H``); markers: markers behind it;
     lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line
     """
 
@@ -290,6 +291,17 @@ def read_pairs(path: Path) -> list[LearnedPair]:
     return [_learned_pair(path, k, obj) for k, obj in enumerate(data)]
 
 
+def _matrix(value: Any, where: str) -> np.ndarray | None:
+    """A `pairs.json` homography: a finite 3x3 matrix or null (``where`` names it)."""
+    try:
+        H = None if value is None else np.asarray(value, np.float64)
+    except (TypeError, ValueError):
+        H = np.full((0, 0), np.nan)
+    if H is not None and (H.shape != (3, 3) or not np.all(np.isfinite(H))):
+        raise ValueError(f"{where} must be a finite 3x3 matrix or null")
+    return H
+
+
 def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     where = f"{path}: pair {k}"
     if not isinstance(obj, dict):
@@ -300,12 +312,12 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     cams = obj["cameras"]
     if not (isinstance(cams, list) and len(cams) == 2 and all(isinstance(c, str) for c in cams)):
         raise ValueError(f"{where}: 'cameras' must be two camera names, got {cams!r}")
-    try:
-        H = None if obj["H"] is None else np.asarray(obj["H"], np.float64)
-    except (TypeError, ValueError):
-        H = np.full((0, 0), np.nan)
-    if H is not None and (H.shape != (3, 3) or not np.all(np.isfinite(H))):
-        raise ValueError(f"{where}: 'H' must be a finite 3x3 matrix or null")
+    H = _matrix(obj["H"], f"{where}: 'H'")
+    markers = int(obj.get("markers", 0))
+    refit = obj.get("H_refit")
+    if isinstance(refit, dict) and refit.get("used"):
+        H = _matrix(refit.get("H"), f"{where}: 'H_refit' is used, its 'H'")
+        markers = int(refit.get("markers", 0))
     lines = []
     for j, line in enumerate(obj.get("fov_lines", [])):
         try:
@@ -318,4 +330,4 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
             raise ValueError(f"{where}: fov_lines[{j}] needs seen_in, edge_of, side (one of "
                              f"{_SIDES}), line [a, b, c] and events")
         lines.append((entry[0], entry[1], entry[2], (coeffs[0], coeffs[1], coeffs[2]), entry[3]))
-    return LearnedPair((cams[0], cams[1]), H, int(obj.get("markers", 0)), tuple(lines))
+    return LearnedPair((cams[0], cams[1]), H, markers, tuple(lines))

@@ -70,6 +70,7 @@ from mvtrack.params import ResolveConfig
 from mvtrack.stages.markers import Comotion
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
 from mvtrack.stages.meta import cameras_apart
+from mvtrack.stages.refit import RefitH
 from mvtrack.stages.targets import CameraTargets, exit_outward
 
 __all__ = ["Resolution", "ResolvedLink", "Rows", "Switch", "WholeRunH", "camera_frames",
@@ -155,6 +156,9 @@ class Resolution:
     # per pair searched (`pipeline.resolve_rows`): the whole run's co-motion hypothesis
     # (None: none found)
     comotion: Mapping[tuple[str, str], WholeRunH | None] = field(default_factory=dict)
+    # per pair, with the homography matcher (`pipeline.resolve_rows`): its H fitted again
+    # from these labels
+    refit: Mapping[tuple[str, str], RefitH] = field(default_factory=dict)
 
     def cue_meta(self, frames: np.ndarray, metas: np.ndarray) -> np.ndarray:
         """Resolved metas for (frame, online meta) pairs; a meta with no target in that frame
