@@ -521,7 +521,8 @@ def _seeds(text: str) -> list[int]:
 _SWEEP_HEADS = {"idf1": "IDF1", "idf1_loss_identity": "ID loss", "consistency": "cons",
                 "idf1_online": "IDF1 on", "recall_min": "rec min", "precision_min": "prec min",
                 "foot_median_px_max": "foot px", "h_median_px_max": "H med",
-                "h_p90_px_max": "H p90", "h_first_frame_max": "H at", "pairs_without_h": "no H",
+                "h_p90_px_max": "H p90", "h_end_p90_px_max": "end p90",
+                "h_first_frame_max": "H at", "pairs_without_h": "no H",
                 "whole_run_h_used": "WR H",
                 "fov_line_px_max": "line px", "occlusion_recovery": "occl"}
 

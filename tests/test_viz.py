@@ -672,6 +672,25 @@ def test_the_event_log_tells_what_the_whole_run_labels_did_with_a_pairs_search()
                                           "run's final H")
 
 
+def test_the_event_log_tells_how_a_pairs_refit_came_out() -> None:
+    from mvtrack.stages.homography import HomographyEstimate, HomographyFailure
+    from mvtrack.stages.refit import RefitH
+    from mvtrack.viz.pairs import refit_h_text
+
+    est = HomographyEstimate(np.eye(3), "robust", 4, np.array([True, True, True, False]),
+                             np.zeros(4), 2.34)
+    head = "whole-run labels: pair cam0-cam1: H fitted again from the labels' "
+    assert refit_h_text("cam0-cam1", RefitH(est, 4, 0.97, 0.96, True)) == (
+        f"{head}4 markers, 3 inliers within 2.3 px (median); of the targets it puts inside "
+        "the other camera, 97% find one there (96% with the H the labels used): handed on "
+        "(pairs.json 'H_refit', --geometry)")
+    assert refit_h_text("cam0-cam1", RefitH(est, 4, 0.9, 0.96, False)).endswith(
+        "(96% with the H the labels used): too few, the H in use is handed on")
+    assert refit_h_text("cam0-cam1", RefitH(HomographyFailure("1 markers, need 4", 1), 1, None,
+                                            0.96, False)) == (
+        f"{head}1 markers failed (1 markers, need 4); the H in use is handed on")
+
+
 def test_the_event_log_tells_the_co_motion_rounds_of_a_pair_without_a_homography() -> None:
     """While a pair has no homography, each co-motion round that differs from the last is one
     line: what was pooled, the held hypotheses' verdicts, what the search found and what was

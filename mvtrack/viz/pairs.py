@@ -318,6 +318,20 @@ def whole_run_h_text(name: str, found: Any, learned: bool, min_share: float) -> 
     return f"{text}: {keep}"
 
 
+def refit_h_text(name: str, refit: Any) -> str:
+    """One line telling how a pair's H fitted again from the whole-run labels came out
+    (``refit``: its :class:`~mvtrack.stages.refit.RefitH`) and which H the run hands on."""
+    text = f"whole-run labels: pair {name}: H fitted again from the labels' {refit.markers} markers"
+    est = refit.estimate
+    if not est:
+        return f"{text} failed ({est.reason}); the H in use is handed on"
+    text += (f", {int(est.inliers.sum())} inliers within {est.quality_px:.1f} px (median); of "
+             f"the targets it puts inside the other camera, {_share(refit.found_share)} find "
+             f"one there ({_share(refit.in_use_share)} with the H the labels used)")
+    return text + (": handed on (pairs.json 'H_refit', --geometry)" if refit.used
+                   else ": too few, the H in use is handed on")
+
+
 def _share(share: float | None) -> str:
     return "none" if share is None else f"{share:.0%}"
 

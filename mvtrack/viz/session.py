@@ -22,7 +22,7 @@ from mvtrack.params import Params
 from mvtrack.pipeline import RunSummary, finish_rows, run
 from mvtrack.stages.pair import PairPrior
 from mvtrack.viz import paths
-from mvtrack.viz.pairs import whole_run_h_text
+from mvtrack.viz.pairs import refit_h_text, whole_run_h_text
 from mvtrack.viz.sink import LogOptions, RerunSink
 
 __all__ = [
@@ -88,6 +88,8 @@ def finish_run(sink: RerunSink, rows: RowsCollector, summary: RunSummary, params
         for pair, found in res.comotion.items():
             sink.event(whole_run_h_text(paths.pair_name(*pair), found, learned[pair],
                                         params.resolve.whole_run_h_min_found_share))
+        for pair, refit in res.refit.items():
+            sink.event(refit_h_text(paths.pair_name(*pair), refit))
         written["_online"] = kept
     if params.feet.smooth_seconds > 0:
         sink.log_final_feet(final, done)
