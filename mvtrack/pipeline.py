@@ -352,39 +352,48 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     final: list[tuple[str, str, np.ndarray | None]] = []
     runs = {}
     comotion: dict[tuple[str, str], WholeRunH | None] = {}
+    shares: dict[tuple[str, str], float | None] = {}  # found share of the H the labels use
     for p in pairs:
         a, b = p["cameras"]
         H = None if p["H"] is None else np.asarray(p["H"], np.float64)
         runs[a, b] = list(camera_frames(rows, (a, b), sizes)) if use_h else []
         if use_h and params.resolve.whole_run_h:
             found = comotion[a, b] = whole_run_h(runs[a, b], H, params)
-            if found is not None and found.used:
-                H = found.hypothesis.H_b_from_a
+            if found is not None:
+                shares[a, b] = found.found_share if found.used else found.final_share
+                H = found.hypothesis.H_b_from_a if found.used else H
         final.append((a, b, H))
     res = resolve_labels(rows, final, params.resolve, use_h=use_h, sizes=sizes,
                          overlaps=spec.overlaps)
-    refit = {(a, b): refit_h(rows, res.meta, (a, b), sizes, H, runs[a, b], params=params)
-             for a, b, H in final if use_h and params.resolve.refit_h}
+    refit = {}
+    if use_h and params.resolve.refit_h:
+        for a, b, H in final:
+            if (a, b) not in shares:
+                shares[a, b] = (None if H is None
+                                else found_share(H, runs[a, b], params.homography))
+            refit[a, b] = refit_h(rows, res.meta, (a, b), sizes, runs[a, b], shares[a, b],
+                                  params=params)
     return replace(res, comotion=comotion, refit=refit)
 
 
-def refit_h(  # noqa: PLR0913 (the run, its labels, the pair, the H in use, thresholds)
+def refit_h(  # noqa: PLR0913 (the run, its labels, the pair, the H in use's share, thresholds)
     rows: Rows, meta: np.ndarray, names: tuple[str, str], sizes: Mapping[str, tuple[int, int]],
-    H_in_use: np.ndarray | None, run: Sequence[tuple[int, CameraTargets, CameraTargets]], *,
+    run: Sequence[tuple[int, CameraTargets, CameraTargets]], in_use_share: float | None, *,
     params: Params,
 ) -> RefitH:
     """A pair's H fitted again from the whole-run labels ``meta`` (:func:`~mvtrack.stages.
     refit.refit_homography`), and whether it is the H the run hands on: a valid refit is,
     unless the share of the targets it projects into the other camera that find one there
-    (``run``: the pair's frames) is lower than that of the H the labels used
-    (``H_in_use``) by more than ``resolve.refit_h_max_share_drop``."""
+    (:func:`~mvtrack.stages.pair.found_share` over ``run``, the pair's frames) is lower than
+    that of the H the labels used (``in_use_share``; None: none, or it projects none there)
+    by more than ``resolve.refit_h_max_share_drop``."""
     est, markers = refit_homography(rows, meta, names, sizes, params.markers, params.homography)
     share = (found_share(est.H_b_from_a, run, params.homography)
              if isinstance(est, HomographyEstimate) else None)
-    in_use = None if H_in_use is None else found_share(H_in_use, run, params.homography)
-    used = bool(est) and (in_use is None or (share is not None and share
-                                             >= in_use - params.resolve.refit_h_max_share_drop))
-    return RefitH(est, len(markers), share, in_use, used)
+    drop = params.resolve.refit_h_max_share_drop
+    used = bool(est) and (in_use_share is None
+                          or (share is not None and share >= in_use_share - drop))
+    return RefitH(est, len(markers), share, in_use_share, used)
 
 
 def whole_run_h(run: Sequence[tuple[int, CameraTargets, CameraTargets]],
