@@ -46,6 +46,7 @@ from mvtrack.stages.blobtrack import (
 )
 from mvtrack.stages.cues import Cue, CueInputs, camera_cues
 from mvtrack.stages.feet import Feet, smooth_feet, target_feet_records
+from mvtrack.stages.fov import border_line
 from mvtrack.stages.homography import HomographyEstimate
 from mvtrack.stages.markers import comotion_of_run
 from mvtrack.stages.matcher import MatchInputs, MatchResult, match_init, match_step
@@ -476,8 +477,9 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
     `whole_run_h`): null (no hypothesis), or ``{"H", "links" ([A label, B label] pairs),
     "candidates" (its inliers), "found_share", "final_found_share" (of ``H``), "used"}``;
     ``H_refit`` (:func:`refit_h`): ``{"H" (null when the fit failed, with "reason"),
-    "markers", "inliers", "quality_px", "found_share", "in_use_found_share" (of the H the
-    labels used), "used" (the H handed on: `--geometry` takes it instead of ``H``)}``."""
+    "markers", "inliers", "quality_px", "fov_lines" (:func:`_lines_through`), "found_share",
+    "in_use_found_share" (of the H the labels used), "used" (handed on: `--geometry` takes its
+    H and lines instead of the pair's)}``."""
     pair = {k: v for k, v in pair.items() if k not in ("H_whole_run", "H_refit")}
     key = (pair["cameras"][0], pair["cameras"][1])
     if res is not None and key in res.comotion:
@@ -491,12 +493,29 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
         refit = res.refit[key]
         est = refit.estimate
         pair["H_refit"] = ({"H": est.H_b_from_a.tolist(), "inliers": int(est.inliers.sum()),
-                            "quality_px": est.quality_px}
+                            "quality_px": est.quality_px,
+                            "fov_lines": _lines_through(est.H_b_from_a, pair)}
                            if isinstance(est, HomographyEstimate)
                            else {"H": None, "reason": est.reason}) | {
             "markers": refit.markers, "found_share": refit.found_share,
             "in_use_found_share": refit.in_use_share, "used": refit.used}
     return pair
+
+
+def _lines_through(H_b_from_a: np.ndarray, pair: Mapping[str, Any]) -> list[dict[str, Any]]:
+    """A `pairs.json` object's FOV lines, those its H gave (source "homography": the other
+    camera's border through H) given again through ``H_b_from_a`` (source "refit")."""
+    out = []
+    for line in pair.get("fov_lines", []):
+        if line.get("source") != "homography":
+            out.append(line)
+            continue
+        seen = pair["cameras"].index(line["seen_in"])
+        H = H_b_from_a if seen == 1 else np.linalg.inv(H_b_from_a)
+        width, height = pair["sizes"][1 - seen]
+        out.append(line | {"line": list(border_line(H, line["side"], (width, height))),
+                           "source": "refit"})
+    return out
 
 
 def priors_from(learned: Sequence[LearnedPair], overlaps: Sequence[tuple[str, str]],

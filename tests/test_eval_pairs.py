@@ -120,6 +120,22 @@ def test_the_whole_run_h_of_a_pair_without_h_is_scored(truth) -> None:  # type: 
     assert m["whole_run_transfer_error_px"]["median"] == pytest.approx(4.0)
 
 
+def test_the_refit_h_and_its_lines_are_scored_beside_the_runs(truth) -> None:  # type: ignore[no-untyped-def]
+    """The run's H and its line of A's right border in B are 4 px off; the refit's are exact."""
+    off = SHIFT.copy()
+    off[0, 2] += 4.0
+    line = {"seen_in": "b", "edge_of": "a", "side": "right", "events": 5, "from_frame": 4}
+    pair = _pair(off, [line | {"line": [1.0, 0.0, -(239.5 + 4.0)]}]) | {"H_refit": {
+        "H": SHIFT.tolist(), "used": True, "fov_lines": [line | {"line": [1.0, 0.0, -239.5]}]}}
+    (m,) = pair_metrics(truth, [pair])
+    assert m["transfer_error_px"]["median"] == pytest.approx(4.0)
+    assert m["refit_transfer_error_px"]["max"] < 1e-9 and m["refit_h_used"]
+    (scored,) = [x for x in m["fov_lines"] if x["learned"]]
+    assert scored["error_px_mean"] == pytest.approx(4.0)
+    assert scored["refit_error_px_mean"] == pytest.approx(0.0, abs=1e-9)
+    assert m["refit_fov_line_error_px_mean_worst"] == pytest.approx(0.0, abs=1e-9)
+
+
 def test_grid_points_when_nobody_is_seen_by_both(tmp_path: Path) -> None:
     _write_truth(tmp_path, np.array([[20.0, 100.0]]))  # only A sees it (x < 80)
     t = read_truth(tmp_path)

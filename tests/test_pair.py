@@ -269,8 +269,12 @@ def test_summary_matches_pairs_json_format(run: Run) -> None:
     assert summary["markers"] == len(run.state.markers.cells) > 0
     assert summary["fov_events"] == run.state.n_events > 0
     for line in summary["fov_lines"]:
-        assert set(line) == {"seen_in", "edge_of", "side", "line", "events", "from_frame"}
+        assert set(line) == {"seen_in", "edge_of", "side", "line", "events", "from_frame",
+                             "source"}
         assert {line["seen_in"], line["edge_of"]} == {"a", "b"}
+    assert {line["source"] for line in summary["fov_lines"]} <= {"events", "homography",
+                                                                  "crossers"}
+    assert any(line["source"] == "homography" for line in summary["fov_lines"])
 
 
 def test_empty_cameras_and_size_mismatch() -> None:

@@ -20,6 +20,7 @@ from mvtrack.io.results import (
 )
 from mvtrack.params import HomographyConfig, ParamsError, ResolveConfig, load_params
 from mvtrack.pipeline import finish_results
+from mvtrack.stages.fov import border_line
 from mvtrack.stages.homography import apply_homography, transfer_errors
 from mvtrack.stages.pair import found_share
 from mvtrack.stages.resolve import camera_frames, resolve_labels
@@ -563,13 +564,14 @@ def _pair_spec(root: Path) -> ClipSpec:
 
 
 def _finish(tmp_path: Path, sets: list[str], unseen: range = range(0),
-            final_H: np.ndarray | None = None) -> tuple[TrackRows, list[dict]]:
+            final_H: np.ndarray | None = None, lines: tuple[dict, ...] = ()
+            ) -> tuple[TrackRows, list[dict]]:
     """The unlinked run written as a results directory whose pair ended with ``final_H``
-    (default none), finished."""
+    (default none) and FOV ``lines``, finished."""
     ResultsWriter(tmp_path).close({"frames": 460}, [
         {"cameras": ["cam0", "cam1"], "H": None if final_H is None else final_H.tolist(),
-         "H_from_frame": None, "markers": 0, "fov_events": 0, "fov_lines": [],
-         "H_whole_run": "stale"}])
+         "H_from_frame": None, "markers": 0, "fov_events": 0, "fov_lines": list(lines),
+         "sizes": [[320, 240], [320, 240]], "H_whole_run": "stale"}])
     rewrite_tracks(tmp_path, _unlinked_run(unseen), lambda f, m: m)
     pairs = json.loads((tmp_path / "pairs.json").read_text())
     finish_results(tmp_path, pairs, load_params(None, sets), _pair_spec(tmp_path))
@@ -671,6 +673,30 @@ def test_the_pairs_h_is_fitted_again_from_the_whole_run_labels(tmp_path) -> None
     assert _walk_error(pairs[0]["H"]) > 5.0 and _walk_error(refit["H"]) < 1.0
     (learned,) = read_pairs(tmp_path / "pairs.json")
     assert np.allclose(learned.H_b_from_a, refit["H"]) and learned.markers == 120
+
+
+def test_the_refit_hands_on_the_fov_lines_its_h_gives(tmp_path) -> None:
+    """The run's line of cam0's left border seen in cam1 came from its H (6 px off); the
+    refit's is that border through the refit H, within a pixel of the true one where people
+    walk. A line from events stays as it was."""
+    off = _off_by(6.0)
+    from_h = {"seen_in": "cam1", "edge_of": "cam0", "side": "left", "events": 4,
+              "from_frame": 300, "source": "homography",
+              "line": list(border_line(off, "left", (320, 240)))}
+    from_events = {"seen_in": "cam0", "edge_of": "cam1", "side": "right", "events": 3,
+                   "from_frame": 200, "source": "events", "line": [1.0, 0.0, -250.0]}
+    _, pairs = _finish(tmp_path, [], final_H=off, lines=(from_h, from_events))
+    refit = pairs[0]["H_refit"]
+    left, right = refit["fov_lines"]
+    assert right == from_events and left["source"] == "refit"
+    border = apply_homography(TRUE_H, np.c_[np.full(5, -0.5), np.linspace(60.0, 220.0, 5)])
+
+    def off_px(line: list) -> float:
+        return float(np.abs(border @ np.array(line[:2]) + line[2]).max())
+
+    assert off_px(from_h["line"]) > 4.0 and off_px(left["line"]) < 1.0
+    (learned,) = read_pairs(tmp_path / "pairs.json")
+    assert [line[3] for line in learned.lines] == [tuple(left["line"]), tuple(right["line"])]
 
 
 def test_a_refit_without_markers_fails_with_a_reason_and_the_h_in_use_is_handed_on(

@@ -13,7 +13,8 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
   images far ground, or the sky, where nobody's feet are);
 - FOV events and markers made before the first valid homography, and its frame;
 - the transfer error of ``H_whole_run`` (the whole run's co-motion H) and ``H_refit`` (H fitted
-  again from the whole-run labels) too, where there is one.
+  again from the whole-run labels) too, where there is one, and the error of the refit's FOV
+  lines (``refit_error_px_mean`` beside each line's).
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -203,6 +204,8 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
     """Every scored side: the learned line's error, or ``learned: false`` where it is missing."""
     names = list(pair["cameras"])
     learned = {(x["seen_in"], x["side"]): x for x in pair.get("fov_lines", [])}
+    refit = {(x["seen_in"], x["side"]): x
+             for x in (pair.get("H_refit") or {}).get("fov_lines", [])}
     out = []
     for i, seen in enumerate(names):
         edge = names[1 - i]
@@ -223,6 +226,8 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
             if line is not None and seg is not None:
                 row["error_px_mean"], row["error_px_max"] = line_error_px(seg, line["line"])
                 row["events"] = line["events"]
+            if (seen, side) in refit and seg is not None:
+                row["refit_error_px_mean"] = line_error_px(seg, refit[seen, side]["line"])[0]
             out.append(row)
     return out
 
@@ -250,6 +255,7 @@ def pair_metrics(
             raise ValueError(f"pair {a}-{b}: no frame sizes in pairs.json nor given")
         lines = _fov_lines(truth, pair, pair_sizes)
         errors = [x["error_px_mean"] for x in lines if x["error_px_mean"] is not None]
+        refit_errors = [x["refit_error_px_mean"] for x in lines if "refit_error_px_mean" in x]
         first = pair.get("H_first")
         out.append(
             {"cameras": [a, b], "H_from_frame": pair.get("H_from_frame")}
@@ -257,6 +263,7 @@ def pair_metrics(
             | {
                 "fov_lines": lines,
                 "fov_line_error_px_mean_worst": max(errors) if errors else None,
+                "refit_fov_line_error_px_mean_worst": max(refit_errors) if refit_errors else None,
                 "first_valid_H": first,
                 "markers": pair.get("markers"),
                 "fov_events": pair.get("fov_events"),

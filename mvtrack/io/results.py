@@ -265,7 +265,8 @@ class LearnedPair:
 
     cameras: (A, B); H_b_from_a: (3, 3) float64 or None, the H the run handed on (its
     ``H_refit`` where that is used, else ``H``); markers: markers behind it;
-    lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line
+    lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line (the refit's
+    where it is used)
     """
 
     cameras: tuple[str, str]
@@ -314,12 +315,21 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
         raise ValueError(f"{where}: 'cameras' must be two camera names, got {cams!r}")
     H = _matrix(obj["H"], f"{where}: 'H'")
     markers = int(obj.get("markers", 0))
+    lines = _lines(obj.get("fov_lines", []), f"{where}: fov_lines")
     refit = obj.get("H_refit")
     if isinstance(refit, dict) and refit.get("used"):
         H = _matrix(refit.get("H"), f"{where}: 'H_refit' is used, its 'H'")
         markers = int(refit.get("markers", 0))
+        lines = _lines(refit.get("fov_lines", obj.get("fov_lines", [])),
+                       f"{where}: H_refit's fov_lines")
+    return LearnedPair((cams[0], cams[1]), H, markers, lines)
+
+
+def _lines(entries: Any, where: str) -> tuple[tuple[str, str, str, tuple[float, float, float],
+                                                     int], ...]:
+    """`pairs.json` FOV line objects as :class:`LearnedPair` lines (``where`` names them)."""
     lines = []
-    for j, line in enumerate(obj.get("fov_lines", [])):
+    for j, line in enumerate(entries):
         try:
             coeffs = tuple(float(v) for v in line["line"])
             entry = (str(line["seen_in"]), str(line["edge_of"]), str(line["side"]),
@@ -327,7 +337,7 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
         except (KeyError, TypeError, ValueError):
             coeffs, entry = (), ("", "", "", 0)
         if len(coeffs) != 3 or entry[2] not in _SIDES:
-            raise ValueError(f"{where}: fov_lines[{j}] needs seen_in, edge_of, side (one of "
-                             f"{_SIDES}), line [a, b, c] and events")
+            raise ValueError(f"{where}[{j}] needs seen_in, edge_of, side (one of {_SIDES}), "
+                             "line [a, b, c] and events")
         lines.append((entry[0], entry[1], entry[2], (coeffs[0], coeffs[1], coeffs[2]), entry[3]))
-    return LearnedPair((cams[0], cams[1]), H, markers, tuple(lines))
+    return tuple(lines)

@@ -822,11 +822,13 @@ def pair_step(
 
 
 def pair_summary(state: PairState) -> dict[str, Any]:
-    """The pair's ``pairs.json`` object (FORMATS.md), with two optional keys.
+    """The pair's ``pairs.json`` object (FORMATS.md), with optional keys.
 
     ``sizes``: [[width, height], [width, height]] of the two cameras; ``H_first``: null, or
     ``{"frame", "markers", "markers_dropped", "fov_events"}`` when the first valid homography
-    was made (markers in the fit, markers dropped so far, FOV events so far).
+    was made (markers in the fit, markers dropped so far, FOV events so far); each FOV line's
+    ``source``, what gave it (:class:`~mvtrack.stages.fov.FovLine`: "homography" is the other
+    camera's border through H).
     """
     est = state.homography
     lines = [
@@ -837,6 +839,7 @@ def pair_summary(state: PairState) -> dict[str, Any]:
             "line": list(s.line.line),
             "events": s.line.events,
             "from_frame": s.line.from_frame,
+            "source": s.line.source,
         }
         for s in state.slots.values()
         if s.line is not None
