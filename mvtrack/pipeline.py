@@ -479,7 +479,7 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
     ``H_refit`` (:func:`refit_h`): ``{"H" (null when the fit failed, with "reason"),
     "markers", "inliers", "quality_px", "fov_lines" (:func:`_lines_through`), "found_share",
     "in_use_found_share" (of the H the labels used), "used" (handed on: `--geometry` takes its
-    H and lines instead of the pair's)}``."""
+    H and lines instead of the pair's; else it takes the H the labels used)}``."""
     pair = {k: v for k, v in pair.items() if k not in ("H_whole_run", "H_refit")}
     key = (pair["cameras"][0], pair["cameras"][1])
     if res is not None and key in res.comotion:

@@ -335,7 +335,7 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
     labels (resolved, with the share of IDF1 lost to identity, and online), the worst
     camera's recall, precision and median foot error, the worst pair's transfer error
     (median, p90) and first valid H frame over the pairs that have one, how many pairs have
-    none, the worst p90 of the H a pair hands on (its `H_refit` where used), how many
+    none, the worst p90 of the H a pair hands on (:func:`_handed_on`), how many
     pairs' whole-run labels used the whole-run H (`H_whole_run`), the worst
     learned FOV line's mean error (lines seen over at least 40 px) and
     occlusion recovery."""
@@ -368,9 +368,12 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def _handed_on(pair: Mapping[str, Any]) -> Mapping[str, Any]:
-    """A pair's transfer error figures of the H it hands on: the refit where it is used."""
+    """A pair's transfer error figures of the H it hands on (`read_pairs`): the refit where
+    it is used, else the whole-run H where the labels used it, else the run's."""
     if pair.get("refit_h_used"):
         return pair.get("refit_transfer_error_px", {})
+    if pair.get("whole_run_h_used"):
+        return pair.get("whole_run_transfer_error_px", {})
     return pair.get("transfer_error_px", {})
 
 

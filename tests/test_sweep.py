@@ -236,3 +236,12 @@ def test_a_clip_that_cannot_be_generated_fails_its_runs(tmp_path: Path) -> None:
     runs = json.loads((tmp_path / "s" / "sweep.json").read_text())["runs"]
     assert [r["variant"] for r in runs] == ["defaults", "b"]
     assert all(r["error"].startswith("generating the clip") for r in runs)
+
+
+def test_the_h_handed_on_is_the_refit_else_the_whole_run_h_the_labels_used() -> None:
+    pair = {"first_valid_H": {"frame": 1}, "transfer_error_px": {"median": 2.0, "p90": 20.0},
+            "whole_run_h_used": True, "whole_run_transfer_error_px": {"median": 1.0, "p90": 5.0},
+            "refit_h_used": False, "refit_transfer_error_px": {"median": 3.0, "p90": 9.0}}
+    assert summary_row({"pairs": [pair]})["h_end_p90_px_max"] == 5.0
+    assert summary_row({"pairs": [pair | {"refit_h_used": True}]})["h_end_p90_px_max"] == 9.0
+    assert summary_row({"pairs": [pair | {"whole_run_h_used": False}]})["h_end_p90_px_max"] == 20.0

@@ -264,7 +264,8 @@ class LearnedPair:
     """One pair's geometry as an earlier run learned it (an object of `pairs.json`).
 
     cameras: (A, B); H_b_from_a: (3, 3) float64 or None, the H the run handed on (its
-    ``H_refit`` where that is used, else ``H``); markers: markers behind it;
+    ``H_refit`` where that is used, else the H its whole-run labels used: ``H_whole_run``
+    where that is used, else ``H``); markers: markers (or candidates) behind it;
     lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line (the refit's
     where it is used)
     """
@@ -316,7 +317,10 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     H = _matrix(obj["H"], f"{where}: 'H'")
     markers = int(obj.get("markers", 0))
     lines = _lines(obj.get("fov_lines", []), f"{where}: fov_lines")
-    refit = obj.get("H_refit")
+    whole_run, refit = obj.get("H_whole_run"), obj.get("H_refit")
+    if isinstance(whole_run, dict) and whole_run.get("used"):
+        H = _matrix(whole_run.get("H"), f"{where}: 'H_whole_run' is used, its 'H'")
+        markers = int(whole_run.get("candidates", 0))
     if isinstance(refit, dict) and refit.get("used"):
         H = _matrix(refit.get("H"), f"{where}: 'H_refit' is used, its 'H'")
         markers = int(refit.get("markers", 0))
