@@ -1103,11 +1103,12 @@ class ResolveConfig(_Checked):
     )
     # stages/refit.py. Generated sweep clips (105 pairs with H, seeds 0-11): the refit's p90
     # transfer error against the true H is lower than the online H's by over 0.5 px on 58
-    # pairs and higher on 16 (always handed on). The share test keeps the online H on 10 of
-    # them: 6 of the 16 (the worst: 'three' s10 cam0-cam2 15.3 -> 41.5 px, 'tilted' s6 12.7
-    # -> 22.3, 'pillar' s11 10.9 -> 19.9; their shares drop 0.025-0.048) and 3 it would have
-    # improved ('three' s3 cam1-cam2 12.2 -> 6.7, share 0.970 -> 0.920). Over the pairs, the
-    # handed-on H's median p90 goes 6.3 -> 5.2 px (seeds 0-2), 7.9 -> 5.6 px (3-11).
+    # pairs and higher on 16 (always handed on). The share test keeps the H the labels used on
+    # 6 of the 16 (the worst: 'three' s10 cam0-cam2 15.3 -> 41.5 px, 'tilted' s6 12.7 -> 22.3,
+    # 'pillar' s11 10.9 -> 19.9; their shares drop 0.025-0.048) and on 3 it would have
+    # improved ('three' s3 cam1-cam2 12.2 -> 6.7, share 0.970 -> 0.920). The H handed on
+    # (io.results.handed_on) beats the online one on 60 pairs and loses on 12; median p90
+    # over the pairs 6.3 -> 5.2 px (seeds 0-2), 7.9 -> 5.5 px (3-11).
     refit_h: bool = param(
         True, "after the whole-run labels, fit each pair's H again from every pair of targets "
         "they join (pairs.json 'H_refit'), handed on (--geometry) unless it explains clearly "

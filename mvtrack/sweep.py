@@ -335,7 +335,7 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
     labels (resolved, with the share of IDF1 lost to identity, and online), the worst
     camera's recall, precision and median foot error, the worst pair's transfer error
     (median, p90) and first valid H frame over the pairs that have one, how many pairs have
-    none, the worst p90 of the H a pair hands on (:func:`_handed_on`), how many
+    none, the worst p90 of the H a pair hands on (`mvtrack.io.results.handed_on`), how many
     pairs' whole-run labels used the whole-run H (`H_whole_run`), the worst
     learned FOV line's mean error (lines seen over at least 40 px) and
     occlusion recovery."""
@@ -358,23 +358,14 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
         "foot_median_px_max": _worst(max, [c.get("foot_error_px_median") for c in cams]),
         "h_median_px_max": _worst(max, [p["transfer_error_px"]["median"] for p in with_h]),
         "h_p90_px_max": _worst(max, [p["transfer_error_px"]["p90"] for p in with_h]),
-        "h_end_p90_px_max": _worst(max, [_handed_on(p).get("p90") for p in pairs]),
+        "h_end_p90_px_max": _worst(max, [p.get("handed_on_transfer_error_px", {}).get("p90")
+                                         for p in pairs]),
         "h_first_frame_max": _frame(_worst(max, [p["first_valid_H"]["frame"] for p in with_h])),
         "pairs_without_h": len(pairs) - len(with_h),
         "whole_run_h_used": sum(bool(p.get("whole_run_h_used")) for p in pairs),
         "fov_line_px_max": _worst(max, lines),
         "occlusion_recovery": _known(labels.get("occlusion_recovery")),
     }
-
-
-def _handed_on(pair: Mapping[str, Any]) -> Mapping[str, Any]:
-    """A pair's transfer error figures of the H it hands on (`read_pairs`): the refit where
-    it is used, else the whole-run H where the labels used it, else the run's."""
-    if pair.get("refit_h_used"):
-        return pair.get("refit_transfer_error_px", {})
-    if pair.get("whole_run_h_used"):
-        return pair.get("whole_run_transfer_error_px", {})
-    return pair.get("transfer_error_px", {})
 
 
 def _frame(value: float | None) -> int | None:

@@ -136,6 +136,25 @@ def test_the_refit_h_and_its_lines_are_scored_beside_the_runs(truth) -> None:  #
     assert m["refit_fov_line_error_px_mean_worst"] == pytest.approx(0.0, abs=1e-9)
 
 
+def test_the_h_handed_on_is_the_refit_else_the_whole_run_h_the_labels_used(truth) -> None:  # type: ignore[no-untyped-def]
+    def off_by(dx: float) -> list:
+        H = SHIFT.copy()
+        H[0, 2] += dx
+        return H.tolist()
+
+    pair = _pair(np.array(off_by(20.0)), []) | {
+        "H_whole_run": {"H": off_by(5.0), "used": True},
+        "H_refit": {"H": off_by(9.0), "used": False}}
+
+    def end_p90(p: dict) -> float:
+        (m,) = pair_metrics(truth, [p])
+        return m["handed_on_transfer_error_px"]["p90"]
+
+    assert end_p90(pair) == pytest.approx(5.0)
+    assert end_p90(pair | {"H_refit": {"H": off_by(9.0), "used": True}}) == pytest.approx(9.0)
+    assert end_p90(pair | {"H_whole_run": {"H": off_by(5.0), "used": False}}) == pytest.approx(20.0)
+
+
 def test_grid_points_when_nobody_is_seen_by_both(tmp_path: Path) -> None:
     _write_truth(tmp_path, np.array([[20.0, 100.0]]))  # only A sees it (x < 80)
     t = read_truth(tmp_path)

@@ -51,13 +51,13 @@ def test_plan_errors_name_what_is_wrong(tmp_path: Path) -> None:
 
 def _metrics(idf1: float, p90: float | None) -> dict:
     pair_h = {"first_valid_H": {"frame": 125}, "transfer_error_px": {"median": 2.0, "p90": p90},
-              "refit_h_used": False, "refit_transfer_error_px": {"median": 9.0, "p90": 9.0},
+              "handed_on_transfer_error_px": {"median": 2.0, "p90": p90},
               "fov_lines": [{"learned": True, "visible_length_px": 80, "error_px_mean": 4.5},
                             {"learned": True, "visible_length_px": 20, "error_px_mean": 30.0}]}
     no_h = {"first_valid_H": None, "transfer_error_px": {"median": None, "p90": None},
             "fov_lines": [{"learned": False, "visible_length_px": 90, "error_px_mean": None}],
-            "whole_run_h_used": True, "refit_h_used": True,
-            "refit_transfer_error_px": {"median": 1.5, "p90": 4.0}}
+            "whole_run_h_used": True,
+            "handed_on_transfer_error_px": {"median": 1.5, "p90": 4.0}}
     return {
         "cameras": {"cam0": {"recall": 0.96, "precision": 0.94, "foot_error_px_median": 3.6},
                     "cam1": {"recall": 0.93, "precision": 0.97, "foot_error_px_median": 2.5}},
@@ -237,11 +237,3 @@ def test_a_clip_that_cannot_be_generated_fails_its_runs(tmp_path: Path) -> None:
     assert [r["variant"] for r in runs] == ["defaults", "b"]
     assert all(r["error"].startswith("generating the clip") for r in runs)
 
-
-def test_the_h_handed_on_is_the_refit_else_the_whole_run_h_the_labels_used() -> None:
-    pair = {"first_valid_H": {"frame": 1}, "transfer_error_px": {"median": 2.0, "p90": 20.0},
-            "whole_run_h_used": True, "whole_run_transfer_error_px": {"median": 1.0, "p90": 5.0},
-            "refit_h_used": False, "refit_transfer_error_px": {"median": 3.0, "p90": 9.0}}
-    assert summary_row({"pairs": [pair]})["h_end_p90_px_max"] == 5.0
-    assert summary_row({"pairs": [pair | {"refit_h_used": True}]})["h_end_p90_px_max"] == 9.0
-    assert summary_row({"pairs": [pair | {"whole_run_h_used": False}]})["h_end_p90_px_max"] == 20.0

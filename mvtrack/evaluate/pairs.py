@@ -13,8 +13,9 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
   images far ground, or the sky, where nobody's feet are);
 - FOV events and markers made before the first valid homography, and its frame;
 - the transfer error of ``H_whole_run`` (the whole run's co-motion H) and ``H_refit`` (H fitted
-  again from the whole-run labels) too, where there is one, and the error of the refit's FOV
-  lines (``refit_error_px_mean`` beside each line's).
+  again from the whole-run labels) too, where there is one, that of the H the run hands on
+  (:func:`~mvtrack.io.results.handed_on`), and the error of the refit's FOV lines
+  (``refit_error_px_mean`` beside each line's).
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -29,6 +30,7 @@ from typing import Any
 import numpy as np
 
 from mvtrack.io import Truth, open_clip
+from mvtrack.io.results import handed_on
 from mvtrack.stages.homography import apply_homography, transfer_errors
 
 __all__ = [
@@ -190,6 +192,9 @@ def _transfer(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> dict[str, An
         out["whole_run_transfer_error_px"] = _errors(pair["H_whole_run"]["H"], pts_a, pts_b)
     if pair.get("H_refit") is not None:
         out["refit_transfer_error_px"] = _errors(pair["H_refit"]["H"], pts_a, pts_b)
+    key = handed_on(pair)
+    out["handed_on_transfer_error_px"] = _errors(pair[key] if key == "H" else pair[key]["H"],
+                                                 pts_a, pts_b)
     return out
 
 

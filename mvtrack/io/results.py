@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import csv
 import json
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -25,8 +25,8 @@ import numpy as np
 
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
-    "TrackRows", "read_cues", "read_pairs", "read_tracks", "restore_streamed", "rewrite_tracks",
-    "write_pairs",
+    "TrackRows", "handed_on", "read_cues", "read_pairs", "read_tracks", "restore_streamed",
+    "rewrite_tracks", "write_pairs",
 ]
 
 TRACKS_HEADER = (
@@ -317,16 +317,25 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     H = _matrix(obj["H"], f"{where}: 'H'")
     markers = int(obj.get("markers", 0))
     lines = _lines(obj.get("fov_lines", []), f"{where}: fov_lines")
-    whole_run, refit = obj.get("H_whole_run"), obj.get("H_refit")
-    if isinstance(whole_run, dict) and whole_run.get("used"):
-        H = _matrix(whole_run.get("H"), f"{where}: 'H_whole_run' is used, its 'H'")
-        markers = int(whole_run.get("candidates", 0))
-    if isinstance(refit, dict) and refit.get("used"):
-        H = _matrix(refit.get("H"), f"{where}: 'H_refit' is used, its 'H'")
-        markers = int(refit.get("markers", 0))
-        lines = _lines(refit.get("fov_lines", obj.get("fov_lines", [])),
+    key = handed_on(obj)
+    if key != "H":
+        H = _matrix(obj[key].get("H"), f"{where}: {key!r} is used, its 'H'")
+        markers = int(obj[key].get("markers", obj[key].get("candidates", 0)))
+    if key == "H_refit":
+        lines = _lines(obj[key].get("fov_lines", obj.get("fov_lines", [])),
                        f"{where}: H_refit's fov_lines")
     return LearnedPair((cams[0], cams[1]), H, markers, lines)
+
+
+def handed_on(pair: Mapping[str, Any]) -> str:
+    """Which homography of a `pairs.json` object the run hands on (what `--geometry` reads and
+    `mvtrack eval` scores as ``handed_on_transfer_error_px``): "H_refit" where the refit is
+    used, else "H_whole_run" where the whole-run labels used it, else "H"."""
+    for key in ("H_refit", "H_whole_run"):
+        found = pair.get(key)
+        if isinstance(found, dict) and found.get("used"):
+            return key
+    return "H"
 
 
 def _lines(entries: Any, where: str) -> tuple[tuple[str, str, str, tuple[float, float, float],
