@@ -164,6 +164,11 @@ class BackgroundConfig(_Checked):
     # false alarms, precision 0.810). No regrowth for MVOs cut by the top: 'three' s0 precision
     # 0.949, but seeds 0-2 IDF1 0.9662 -> 0.9621 (people at the top who did lose their legs,
     # 'pair' s2 0.961 -> 0.937); 0.3 more min gap for them: IDF1 0.9663, foot medians worse.
+    # Growing those cut by the top through D_B > T_L pixels only, not shadow: 'three' s0
+    # precision 0.810 -> 0.949 (IDF1 0.940 -> 0.965), but seeds 0-2 IDF1 0.9666 -> 0.9650:
+    # 'pair' s2 0.963 -> 0.948, 'pillar' s0 0.990 -> 0.975, s1 0.926 -> 0.905 (people at the
+    # top, 90-100 % in the frame, whose trousers pass the shadow test). What tells them apart
+    # is how much of the person the top cuts, which one frame does not show.
     # Fitting the line to (top row, height), which a lost or grown bottom does not move, got
     # 'tilted' s3 cam1's slope to 0.16 but s1 cam1's to 0.02 (true 0.20). Local texture (NCC
     # of frame and background V, 5x5) marks the shadow's inside, not its edge at the feet.
