@@ -1197,18 +1197,13 @@ class ResolveConfig(_Checked):
     stitch_gate_heights: float = param(
         0.75, "...if it begins within this many heights of where that one would be", 0.0, 100.0,
     )
-    # Across cameras: a person who walked out of one view while hidden in the other comes out
-    # where the walk, carried through the pair's final H, leads. Over the 96 sweep runs
-    # (`batch.refinish_to` of seeds 0-11 with this on and off) it joins three: 'three' s8
-    # IDF1 0.979 -> 0.990, 'pillar' s7 0.971 -> 0.976, s11 0.979 -> 0.982; no run loses.
-    # Not to a target whose first box is on a border it can walk in over (doors s0: one who
-    # walked into cam1 46 frames after another left both views, 0.976 -> 0.949 without this
-    # rule). Doors s9's person 4, hidden in cam0 as it left cam1, is not joined: it walked
-    # out along cam1's border, its feet held at the frame's edge, so its last walk stands.
-    stitch_across_cameras: bool = param(
-        True, "stitches also join a target that ended in one camera of a pair with H to one "
-        "that began in the other where its walk, carried through H, leads"
-    )
+    # Stitches across a pair with H (one camera's target that walked out of its view, its walk
+    # carried through H to where a target of the other camera began, not on a border: one who
+    # left one view while behind a box in the other) were tried: over the 96 sweep runs
+    # 'three' s8 IDF1 0.979 -> 0.990, 'pillar' s7 0.971 -> 0.976, s11 0.979 -> 0.982, no run
+    # worse (seeds 3-11 mean 0.9572 -> 0.9575); but on PETS (View_001 video + View_003
+    # detections) 0.535 -> 0.526: View_003's tracks break everywhere inside its view, and a
+    # 74-row View_001 target (person 15) was joined to person 14. Not taken.
     # A target that changed person (two people crossing at a door or a frame edge merge and the
     # wrong one keeps the label) votes for one person, then for another. Generated doors seed 1:
     # cam0 target 4 is person 1 for 89 frames, then person 5 for 100.

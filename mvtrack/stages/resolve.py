@@ -39,10 +39,7 @@ the results give each target one meta for its whole life:
   another ended, where that one would be had it walked on as before, continues it (a person
   hidden behind a pillar while no other camera saw both parts), unless the one that ended
   walked out of the view: last seen on the left, right or bottom border, not walking back
-  into the view; and, across a pair with a final H (``stitch_across_cameras``), a target
-  of one camera that begins where a target of the other, which ended, would be had it walked
-  on, its walk carried through H (a person who left one view while behind a door in the
-  other), unless the one that begins walked into its view over such a border;
+  into the view;
 - links join strongest first (cross-camera votes, then same-camera continuity, then
   stitches). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
@@ -70,7 +67,6 @@ from typing import Any, Protocol
 import numpy as np
 
 from mvtrack.params import ResolveConfig
-from mvtrack.stages.homography import apply_homography
 from mvtrack.stages.markers import Comotion
 from mvtrack.stages.matcher import gated_assignment, symmetric_transfer
 from mvtrack.stages.meta import cameras_apart
@@ -471,9 +467,7 @@ class _Ends:
     (:func:`_walk`); its median height (px), and whether it walked out of the view: its last
     box on a border it can walk out over (:func:`_outward`), its last walk not heading back
     into the view (a person who came in there and merged with someone on the border at the
-    end did not walk out); whether it may have walked into the view: its first box on such a
-    border, whichever way its first rows go (the feet of one coming in shift as more of the
-    body comes into view: doors seed 0, cam1's target 16 on the left border, "walking" left)."""
+    end did not walk out)."""
 
     first: int
     last: int
@@ -483,7 +477,6 @@ class _Ends:
     end_v: np.ndarray
     height: float
     walked_out: bool
-    walked_in: bool
 
 
 def _walk(frames: np.ndarray, xy: np.ndarray, at: int) -> tuple[np.ndarray, np.ndarray]:
@@ -512,49 +505,31 @@ def _ends(rows: Rows, nodes: list[Node], outward: np.ndarray) -> dict[Node, _End
         side = outward[order[-1]]
         out[n] = _Ends(int(f[0]), int(f[-1]), start_xy, end_xy, start_v, end_v,
                        float(np.median(rows.height[order])),
-                       bool(side.any() and end_v @ side >= 0), bool(outward[order[0]].any()))
+                       bool(side.any() and end_v @ side >= 0))
     return out
 
 
-def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig,
-                  homographies: Mapping[tuple[str, str], np.ndarray] | None = None
+def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
                   ) -> list[tuple[int, Node, Node]]:
-    """(rows of the shorter, earlier node, later node): a target that ended and one that began
-    at most ``stitch_max_gap_frames`` later where the first, carried on at its last velocity,
-    would be (within ``stitch_gate_heights`` of the later one's height), walking the same way,
-    each the other's only such match: a person hidden behind something for a while.
-
-    Within one camera, not from a target that walked out of the view
-    (``_Ends.walked_out``). Across cameras (``homographies``: (from camera, to camera) ->
-    H_to_from_from, each final H and its inverse), the earlier one's walk is carried into the
-    later one's camera through H: a person who walked out of one view while hidden in the
-    other (behind a door) comes out where that walk leads; not one that walked into its view
-    over a border (``_Ends.walked_in``: it was out of that view, not hidden in it)."""
-    across = homographies or {}
+    """(rows of the shorter, earlier node, later node): one camera's target that ended and
+    one that began at most ``stitch_max_gap_frames`` later where the first, carried on at its
+    last velocity, would be (within ``stitch_gate_heights`` of its height), walking the same
+    way, each the other's only such match: a person hidden behind something for a while.
+    Not from a target that walked out of the view (``_Ends.walked_out``)."""
     count = Counter(nodes)
     best: dict[Node, tuple[float, Node]] = {}
     back: dict[Node, tuple[float, Node]] = {}
     for x, ex in ends.items():
+        if ex.walked_out:
+            continue
         for y, ey in ends.items():
             gap = ey.first - ex.last
-            if not 0 < gap <= cfg.stitch_max_gap_frames:
+            if y[0] != x[0] or not 0 < gap <= cfg.stitch_max_gap_frames:
                 continue
-            if y[0] == x[0]:
-                if ex.walked_out:
-                    continue
-                at, v, height = ex.end_xy + gap * ex.end_v, ex.end_v, ex.height
-            elif (H := across.get((x[0], y[0]))) is not None and not ey.walked_in:
-                walk = apply_homography(H, np.stack([ex.end_xy, ex.end_xy + ex.end_v,
-                                                     ex.end_xy + gap * ex.end_v]))
-                if not np.isfinite(walk).all():
-                    continue
-                at, v, height = walk[2], walk[1] - walk[0], ey.height
-            else:
+            d = float(np.linalg.norm(ey.start_xy - (ex.end_xy + gap * ex.end_v)))
+            if d > cfg.stitch_gate_heights * ex.height or float(ex.end_v @ ey.start_v) < 0:
                 continue
-            d = float(np.linalg.norm(ey.start_xy - at))
-            if d > cfg.stitch_gate_heights * height or float(v @ ey.start_v) < 0:
-                continue
-            cost = d / height
+            cost = d / ex.height
             if cost < best.get(x, (np.inf,))[0]:
                 best[x] = (cost, y)
             if cost < back.get(y, (np.inf,))[0]:
@@ -672,14 +647,12 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     fragment_votes: dict[tuple[str, str], list[tuple[int, int]]] = {}
     without_h: set[frozenset[str]] = set()
     far: dict[tuple[str, str], list[tuple[int, int]]] = {}
-    final_h: dict[tuple[str, str], np.ndarray] = {}
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
         else:
-            final_h[a, b] = np.asarray(H, np.float64)
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
-                rows, frames, (a, b), final_h[a, b], cfg)
+                rows, frames, (a, b), np.asarray(H, np.float64), cfg)
     outward = _outward(rows, sizes)
     at_exit = np.asarray(outward.any(axis=1))  # on_exit_border of every row, its own rule
     segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
@@ -695,11 +668,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
-    across = {}
-    if cfg.stitch_across_cameras:
-        for (a, b), H in final_h.items():
-            across[a, b], across[b, a] = H, np.linalg.inv(H)
-    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg, across)]
+    scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
                      cameras_apart(rows.camera.tolist(), overlaps))
     links = []
