@@ -184,6 +184,22 @@ class BackgroundConfig(_Checked):
         0.1, "legs: only MVOs whose bottom is this fraction of the predicted height above "
         "where the corridor stops", -1.0, 1.0,
     )
+    # An MVO cut by the top border is grown legs only if they were mostly lost while it was
+    # below the border (the score: per frame seen there, times legs_score_decay, plus 1 with
+    # its legs all there, minus 1 without; carried to the MVOs it overlaps; none seen: grown
+    # as before), or if they vanish at once on the way out, then down to where they reached
+    # (:func:`~mvtrack.stages.background._regrow_legs`). `mvtrack sweep`, seeds 0-2: IDF1
+    # 0.9666 -> 0.9675, worst camera's precision 0.960 -> 0.967 on average ('three' s0 0.810
+    # -> 0.949, IDF1 0.940 -> 0.966; s2 0.890 -> 0.900; 'crowd' s0 IDF1 0.927 -> 0.918);
+    # seeds 3-11: IDF1 0.9572 both, precision 0.962 -> 0.963, worst foot median 3.39 -> 3.28
+    # px ('crowd' s4 IDF1 0.872 -> 0.860 and 'pair' s9 0.982 -> 0.977: someone at the top
+    # who had merged with another, whose bottom then says where the legs reached; 'crowd' s9
+    # 0.919 -> 0.925). PETS View_001 video: recall, precision and feet unchanged.
+    legs_score_decay: float = param(
+        0.9, "legs: per frame an MVO is seen below the top border, its legs score is "
+        "multiplied by this and gains 1 (legs all there) or loses 1 (lost); cut by the top "
+        "with a score above 0, it gets no legs down to the size line's feet row", 0.0, 1.0,
+    )
     legs_stop_frac: float = param(
         0.0, "legs: stop this fraction of the predicted height above the predicted feet row",
         -1.0, 1.0,

@@ -46,7 +46,10 @@ Choices beyond the thesis (each with its config field):
   knees. Where the camera's size line (learned from its own MVOs) predicts the feet row,
   shadow and D_B > T_L pixels growing down from the torso within a corridor below it are given
   back to the MVO (:func:`_regrow_legs`, ``regrow_legs``); the shadow map and the foreground
-  shadows are then taken without them.
+  shadows are then taken without them. An MVO cut by the top border has no head there, so
+  the size line puts its feet too low: it gets no legs grown if they were mostly all there
+  while it was below the border (a score carried from MVO to overlapping MVO,
+  ``legs_score_decay``), else its cast shadow would become its legs.
 - **Broken shadows stay foreground.** A far person's cast shadow passes the shadow test in
   specks (texture, noise, the legs between): unconnected to the MVO, they were ghost shadows,
   went into the FIFO, and a slow walker left a dark trail of its shadow in B. A shadow pixel
@@ -175,6 +178,9 @@ class BackgroundState:
     mvo_prev:    (H,W) int32, read-only, or None before the first step: last frame's MVO labels
     mvo_ages:    (M,) int64, read-only: per last-frame MVO (label - 1), 1 + the frames in a row
                  its blob was held (1: it moved and had its full area)
+    mvo_legs:    (M, 2) float64, read-only: per last-frame MVO (label - 1), its legs score
+                 (above 0 when its legs were mostly all there while it was seen below the top
+                 border, :func:`_regrow_legs`) and its bottom row
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
@@ -188,6 +194,7 @@ class BackgroundState:
     frame_index: int
     mvo_prev: np.ndarray | None = None
     mvo_ages: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
+    mvo_legs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
     sizes: SizeModel = field(default_factory=SizeModel)
 
@@ -577,6 +584,17 @@ def _hold_ages(overlaps: np.ndarray, mvo_ages: np.ndarray, k: int) -> np.ndarray
     return least
 
 
+def _legs_before(overlaps: np.ndarray, mvo_legs: np.ndarray, k: int) -> np.ndarray:
+    """(K, 2) float64: per blob, the highest legs score and the lowest bottom row
+    (``BackgroundState.mvo_legs``) of the last-frame MVOs it overlaps (``overlaps`` from
+    :func:`_prev_overlaps`); (0, -1) when none."""
+    before = np.full((k, 2), -np.inf)
+    if len(mvo_legs):
+        np.maximum.at(before, overlaps[:, 0] - 1, mvo_legs[overlaps[:, 1] - 1])
+    before[np.isinf(before[:, 0])] = (0.0, -1.0)
+    return before
+
+
 def _small_remnants(small: np.ndarray, full: np.ndarray, area: np.ndarray,
                     overlaps: np.ndarray) -> np.ndarray:
     """(K,) bool: the ``small`` blobs that are all that is left of the last-frame MVOs they
@@ -722,15 +740,23 @@ def _split_shadows(shadow: np.ndarray, mvo: np.ndarray, mvo_index: np.ndarray,
     return fg_shadow
 
 
-def _regrow_legs(
+def _regrow_legs(  # noqa: PLR0913 (the MVOs, two pixel maps, sizes, history, thresholds)
     mvo_labels: np.ndarray,
     shadow: np.ndarray,
     dist8: np.ndarray,
     blobs: BlobTable,
     sizes: SizeModel,
+    legs_before: np.ndarray,
+    *,
     cfg: BackgroundConfig,
-) -> bool:
-    """Gives an MVO the pixels of its legs that it lost, in place; whether any were.
+) -> tuple[bool, np.ndarray, np.ndarray]:
+    """Gives an MVO the pixels of its legs that it lost, in place. Returns whether any were,
+    and per MVO (M,) float64 its legs score and the bottom row its legs reach (for the next
+    frame's ``legs_before``). The score: its score in ``legs_before`` ((M, 2) per MVO, score
+    and bottom row, from the last-frame MVOs it overlaps) times ``legs_score_decay``, plus 1
+    if it is seen below the top border and ends where its legs stop (no regrowth needed),
+    minus 1 if its legs are lost there; unchanged while it is cut by the top or its size is
+    unknown.
 
     Dark gray trousers on gray pavement pass the shadow test, and thin lower legs fall apart
     into fragments that the opening removes or that fail the MVO tests: the MVO ends at the
@@ -744,32 +770,48 @@ def _regrow_legs(
     ``legs_width_frac`` of the height each side, for the stride. A cast shadow leaves that
     corridor, lies beyond y_f, or runs sideways, and stays a shadow. Blobs wider than 0.8 of
     the predicted height (groups) are left as they are.
+
+    An MVO cut by the top border has no head there: y_f lies below its feet by what the
+    border cuts, and its cast shadow grows into the corridor ('three' seed 0 cam1, precision
+    0.810). One whose legs were mostly all there before it reached the border (a person
+    walking out over the top; score above 0) gets legs grown only down to where they reached
+    in the last frame, and only when its bottom rose above that (if above the size line's
+    feet row) by more than ``legs_min_gap_frac`` of its height at once: legs it lost on the
+    way out ('pillar' seed 0 cam1), not its shadow.
     """
+    score = np.array(legs_before[:, 0], np.float64)
+    reach_row = blobs.box_xywh[blobs.is_mvo, 1] + blobs.box_xywh[blobs.is_mvo, 3] - 0.5
     line = sizes.slope_intercept()
     if not cfg.regrow_legs or line is None or line[0] >= 1.0:
-        return False
+        return False, score, reach_row
     slope, intercept = line
     t_low = _u8_floor(cfg.t_low)
     grown = False
     rows, cols = mvo_labels.shape
-    for (x, y, w, h), label in zip(
+    for i, ((x, y, w, h), label) in enumerate(zip(
         blobs.box_xywh[blobs.is_mvo], blobs.mvo_label[blobs.is_mvo], strict=True
-    ):
+    )):
         feet_edge = (y + intercept) / (1.0 - slope)
         height = feet_edge - y
         gap = feet_edge - (y + h)
         held = sizes.height_at(np.array([feet_edge]))  # NaN beyond a band's rows
-        if (
-            height <= 0
-            or held is None
-            or np.isnan(held[0])
-            or w > 0.8 * height
-            or gap < (cfg.legs_stop_frac + cfg.legs_min_gap_frac) * height
-        ):
+        if height <= 0 or held is None or np.isnan(held[0]) or w > 0.8 * height:
+            continue
+        lost = gap >= (cfg.legs_stop_frac + cfg.legs_min_gap_frac) * height
+        stop = min(rows, round(feet_edge - cfg.legs_stop_frac * height + 0.5))
+        if y >= 0.5:  # below the top border (a box on it has its top edge at -0.5)
+            score[i] = cfg.legs_score_decay * score[i] + (-1.0 if lost else 1.0)
+        elif score[i] > 0:
+            bottom, before = y + h - 0.5, legs_before[i, 1]
+            vanished = bottom < before - cfg.legs_min_gap_frac * height and before < stop
+            if vanished:  # held where they reached, not at the size line's feet row
+                reach_row[i] = before
+            lost = vanished
+            stop = int(reach_row[i]) + 1
+        if not lost:
             continue
         x0 = round(x + 0.5)  # box edges to pixel indices (pixel p covers p +- 0.5)
         start = round(y + 0.3 * height + 0.5)
-        stop = min(rows, round(feet_edge - cfg.legs_stop_frac * height + 0.5))
         torso = mvo_labels[round(y + 0.15 * height + 0.5) : start, x0 : x0 + int(w)] == label
         torso_cols = np.flatnonzero(torso.any(axis=0))
         if len(torso_cols) == 0 or stop - start < 1:
@@ -782,8 +824,10 @@ def _regrow_legs(
         changed = shadow[r0:stop, c0:c1] | (dist8[r0:stop, c0:c1] > t_low)
         legs = _grow_down(window == label, changed & (window == 0))
         window[legs] = label
+        if legs.any():
+            reach_row[i] = max(reach_row[i], r0 + int(np.flatnonzero(legs.any(axis=1))[-1]))
         grown |= bool(legs.any())
-    return grown
+    return grown, score, reach_row
 
 
 def _grow_down(body: np.ndarray, shade: np.ndarray) -> np.ndarray:
@@ -1128,7 +1172,10 @@ def background_step(
     blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds, candidate.shape)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
-    if _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, cfg):
+    legs_before = _legs_before(overlaps, state.mvo_legs, k)[blobs.is_mvo]
+    grown, legs, reach = _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, legs_before,
+                                      cfg=cfg)
+    if grown:
         mvo = mvo_labels > 0
         shadow = shadow & ~mvo
         mvo_index = np.flatnonzero(mvo)
@@ -1158,6 +1205,7 @@ def background_step(
         frame_index=state.frame_index + 1,
         mvo_prev=_readonly(mvo_labels),
         mvo_ages=_readonly(age[blobs.is_mvo]),  # in MVO label order
+        mvo_legs=_readonly(np.c_[legs, reach]),
         shared=shared,
         sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
     )
