@@ -47,9 +47,10 @@ Choices beyond the thesis (each with its config field):
   shadow and D_B > T_L pixels growing down from the torso within a corridor below it are given
   back to the MVO (:func:`_regrow_legs`, ``regrow_legs``); the shadow map and the foreground
   shadows are then taken without them. An MVO cut by the top border has no head there, so
-  the size line puts its feet too low: it gets no legs grown if they were mostly all there
-  while it was below the border (a score carried from MVO to overlapping MVO,
-  ``legs_score_decay``), else its cast shadow would become its legs.
+  the size line puts its feet too low and its cast shadow would become its legs: if its legs
+  were mostly all there while it was below the border (a score carried from MVO to
+  overlapping MVO, ``legs_score_decay``), it gets legs grown only where they vanish at once,
+  and only down to where they last reached.
 - **Broken shadows stay foreground.** A far person's cast shadow passes the shadow test in
   specks (texture, noise, the legs between): unconnected to the MVO, they were ghost shadows,
   went into the FIFO, and a slow walker left a dark trail of its shadow in B. A shadow pixel
@@ -585,9 +586,9 @@ def _hold_ages(overlaps: np.ndarray, mvo_ages: np.ndarray, k: int) -> np.ndarray
 
 
 def _legs_before(overlaps: np.ndarray, mvo_legs: np.ndarray, k: int) -> np.ndarray:
-    """(K, 2) float64: per blob, the highest legs score and the lowest bottom row
-    (``BackgroundState.mvo_legs``) of the last-frame MVOs it overlaps (``overlaps`` from
-    :func:`_prev_overlaps`); (0, -1) when none."""
+    """(K, 2) float64: per blob, the highest legs score and the largest bottom row (lowest in
+    the image) of the last-frame MVOs it overlaps (``BackgroundState.mvo_legs``;
+    ``overlaps`` from :func:`_prev_overlaps`); (0, -1) when none."""
     before = np.full((k, 2), -np.inf)
     if len(mvo_legs):
         np.maximum.at(before, overlaps[:, 0] - 1, mvo_legs[overlaps[:, 1] - 1])
