@@ -247,9 +247,9 @@ def test_people_one_behind_the_other_are_two_blobs_where_the_size_line_says_so()
     # a head above a body taller than the line says (46 px together > 1.4 x 30) is still one
     # person: the head is no whole person (8 px < 0.7 x 30)
     head_body = np.array([[10.0, 10.0, 8.0, 8.0], [8.0, 20.0, 12.0, 36.0]])
-    assert _fragment_links(head_body, people_30, CFG)[0, 1]
+    assert _fragment_links(head_body, 160, people_30, CFG)[0, 1]
     any_part_whole = dataclasses.replace(CFG, group_whole_frac=0.2)
-    assert not _fragment_links(head_body, people_30, any_part_whole)[0, 1]
+    assert not _fragment_links(head_body, 160, people_30, any_part_whole)[0, 1]
 
 
 @pytest.mark.parametrize(
@@ -267,6 +267,25 @@ def test_stacked_boxes_table(boxes: list[list[float]], linked: bool) -> None:
     m = stacked_boxes(np.array(boxes, np.float64), 0.5, 0.15, 0.5, 4.5)
     assert m[0, 0] and m[1, 1] and m[0, 1] == m[1, 0]
     assert bool(m[0, 1]) is linked
+
+
+@pytest.mark.parametrize(
+    ("x0", "on_border"),
+    [(233.5, True), (234.0, True), (-0.5, True), (0.0, True), (223.5, False), (1.0, False)],
+)
+def test_stacked_slivers_on_a_side_border_need_no_upright_aspect(
+    x0: float, on_border: bool
+) -> None:
+    """Torso and legs of someone walking in at a side border, 6 px of them in view and 34 tall
+    together (5.7 : 1), are stacked there (edge boxes at -0.5 / 239.5 or pixel-index boxes at
+    0 / 240 of a 240 px frame); the same slivers inside the frame are not. Without a size
+    model the border is no exception: two people, one above the other, look the same."""
+    boxes = np.array([[x0, 31.5, 6.0, 17.0], [x0, 49.5, 6.0, 16.0]])
+    assert not stacked_boxes(boxes, 0.5, 0.15, 0.5, 4.5)[0, 1]
+    assert bool(stacked_boxes(boxes, 0.5, 0.15, 0.5, 4.5, cols=240)[0, 1]) is on_border
+    # blobs are grouped so only once a size model bounds their height (people 36 px tall)
+    assert bool(_fragment_links(boxes, 240, SizeModel(line=(0.0, 36.0)), CFG)[0, 1]) is on_border
+    assert not _fragment_links(boxes, 240, SizeModel(), CFG)[0, 1]
 
 
 def test_removed_object_is_a_ghost_and_is_absorbed() -> None:

@@ -135,6 +135,31 @@ def test_stacked_fragment_targets_reunite_when_their_blobs_join() -> None:
     assert r.labels.tolist() == [1, 2] and r.merges == ((1, (1, 2)),)
 
 
+def test_torso_and_legs_walking_in_at_the_side_border_reunite() -> None:
+    """Someone walks in at the right border with torso and legs apart for two frames, then
+    whole: a sliver 4-10 px wide and 36 tall, narrower than any upright person (aspect 4.5),
+    because the border cuts it. With a size model (people 36 px tall) the two fragment targets
+    reunite when the blobs join; without one, or inside the frame, they are two people."""
+    apart = blobs((W - 4, 30, W - 1, 46), (W - 5, 50, W - 1, 65))  # torso, legs
+    frames = [apart, apart] + [blobs((W - 8 - 2 * t, 30, W - 1, 65)) for t in range(3)]
+    people_36 = SizeModel(line=(0.0, 36.0))
+
+    def track(frames: list[np.ndarray], sizes: SizeModel | None) -> list:
+        state, res = tracker_init(), []
+        for mvo in frames:
+            state, r = track_masks(state, mvo, None, CFG, sizes)
+            res.append(r)
+        return res
+
+    res = track(frames, people_36)
+    assert res[0].labels.tolist() == [1, 2]
+    assert res[2].labels.tolist() == [2] and res[2].merges == ()
+    assert res[2].reunions == ((2, (1,)),) and res[2].retirements == (1,)
+    assert all(r.labels.tolist() == [2] and r.births == () for r in res[3:])
+    for other in (track(frames, None), track([np.roll(f, -40, axis=1) for f in frames], people_36)):
+        assert other[2].merges == ((1, (1, 2)),) and other[2].reunions == ()
+
+
 @pytest.mark.parametrize("part_max_height_frac", [0.5, 0.0])
 def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: float) -> None:
     """A striding person (torso and back leg one blob) whose front leg comes apart for a frame:

@@ -861,6 +861,7 @@ def stacked_boxes(
     y_gap_frac: float,
     y_overlap_frac: float,
     max_aspect: float,
+    cols: int | None = None,
 ) -> np.ndarray:
     """(K, K) bool: pairs of boxes stacked like the parts of one upright person.
 
@@ -868,7 +869,13 @@ def stacked_boxes(
     ``x_overlap_frac`` of the narrower width, the vertical gap between them is at most
     ``y_gap_frac`` of the taller height, their row ranges share at most ``y_overlap_frac`` of
     the shorter height (people side by side are not stacked) and the union box is at most
-    ``max_aspect`` times taller than wide (a far person above a near one's head is not).
+    ``max_aspect`` times taller than wide (a far person above a near one's head is not),
+    unless it reaches the left or right border of a frame ``cols`` wide (given): there the
+    border cuts the width, and a person walking in or out is a sliver of any aspect
+    (generated 'pillar' seed 2 cam1: torso and legs 6 px wide and 34 tall at the right border
+    stayed two targets for 30 frames). Callers give ``cols`` only where a size model bounds
+    the union's height instead (:func:`too_tall_unions`): without one, two people at the
+    border, one walking out below one walking in, would pass ('doors' seed 3 cam1, frame 19).
     The diagonal is True. Shared with the tracker, which reunites fragment targets.
     """
     x0, y0, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
@@ -877,11 +884,15 @@ def stacked_boxes(
     over_y = np.minimum(y1[:, None], y1) - np.maximum(y0[:, None], y0)
     union_w = np.maximum(x1[:, None], x1) - np.minimum(x0[:, None], x0)
     union_h = np.maximum(y1[:, None], y1) - np.minimum(y0[:, None], y0)
+    upright = union_h <= max_aspect * union_w
+    if cols is not None:  # on the border with pixel-index (0, cols) or edge (-0.5) boxes
+        cut = (x0 < 0.5) | (x1 > cols - 1.0)
+        upright |= cut[:, None] | cut
     stacked = (
         (over_x >= x_overlap_frac * np.minimum(w[:, None], w))
         & (-over_y <= y_gap_frac * np.maximum(h[:, None], h))
         & (over_y <= y_overlap_frac * np.minimum(h[:, None], h))
-        & (union_h <= max_aspect * union_w)
+        & upright
     )
     np.fill_diagonal(stacked, True)
     return stacked
@@ -940,18 +951,22 @@ def link_groups(linked: np.ndarray) -> tuple[int, np.ndarray]:
     return len(names), group
 
 
-def _fragment_links(box_xywh: np.ndarray, sizes: SizeModel, cfg: BackgroundConfig) -> np.ndarray:
+def _fragment_links(
+    box_xywh: np.ndarray, cols: int, sizes: SizeModel, cfg: BackgroundConfig
+) -> np.ndarray:
     """(K, K) bool: components that look like fragments of one person: stacked
     (:func:`stacked_boxes`) unless both are whole people (each at least ``group_whole_frac``
     of the person height ``sizes`` predicts at its bottom) taller together than one
     (:func:`too_tall_unions`), or one box inside the other (at least ``group_contained_frac``
-    of the smaller box's area). box_xywh: (K, 4) float64."""
+    of the smaller box's area). box_xywh: (K, 4) float64; cols: the frame's width (at its
+    side borders, with a size model, no aspect test)."""
     stacked = stacked_boxes(
         box_xywh,
         cfg.group_x_overlap_frac,
         cfg.group_y_gap_frac,
         cfg.group_y_overlap_frac,
         cfg.group_max_aspect,
+        None if sizes.slope_intercept() is None else cols,
     )
     too_tall = too_tall_unions(box_xywh, sizes, cfg.group_max_height_frac)
     if too_tall is not None and too_tall.any():  # rare: only then the heights at each bottom
@@ -984,7 +999,7 @@ def _group_fragments(
     k = stats.shape[0] - 1
     if k < 2 or not cfg.group_fragments:
         return comp_labels, stats
-    links = _fragment_links(stats[1:, :4].astype(np.float64), sizes, cfg)
+    links = _fragment_links(stats[1:, :4].astype(np.float64), comp_labels.shape[1], sizes, cfg)
     n_groups, group = link_groups(links)
     if n_groups == k:
         return comp_labels, stats

@@ -477,6 +477,7 @@ class _Inputs:
     frame: np.ndarray | None  # (H, W) or (H, W, C) image, None without colour
     cfg: TrackerConfig
     size_model: SizeModel | None = None  # the camera's person height per feet row, if learned
+    cols: int | None = None  # the frame's width (the border cuts boxes on its sides)
 
     def codes_in(self, window: tuple[slice, slice]) -> np.ndarray | None:
         """(h, w) int64 colour codes of the frame in ``window``, or None without a frame."""
@@ -510,8 +511,9 @@ class _Frame:
 
 def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     """(K, K) bool: boxes (K, 4) stacked like the parts of one person (TrackerConfig.fragment_*):
-    :func:`stacked_boxes`, and no taller together than ``fragment_max_height_frac`` times the
-    person height the size line predicts at their union's bottom (:func:`too_tall_unions`)."""
+    :func:`stacked_boxes` (with no aspect test at the frame's side borders once there is a
+    size model), and no taller together than ``fragment_max_height_frac`` times the person
+    height the size line predicts at their union's bottom (:func:`too_tall_unions`)."""
     cfg = ctx.cfg
     stacked = stacked_boxes(
         box_xywh,
@@ -519,6 +521,7 @@ def _stacked(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
         cfg.fragment_y_gap_frac,
         cfg.fragment_y_overlap_frac,
         cfg.fragment_max_aspect,
+        None if ctx.size_model is None or ctx.size_model.slope_intercept() is None else ctx.cols,
     )
     too_tall = too_tall_unions(box_xywh, ctx.size_model, cfg.fragment_max_height_frac)
     return stacked if too_tall is None else stacked & ~too_tall
@@ -948,7 +951,7 @@ def track_masks(
     rows = np.array([t.label for t in state.targets], np.int64)
     overlap = _mask_overlap(state.label_image, rows, cur, blob_ids, found.index)
     plan = _associate(overlap, overlap >= cfg.min_overlap_px, sizes)
-    ctx = _Inputs(frame, cfg, size_model)
+    ctx = _Inputs(frame, cfg, size_model, cur.shape[1])
 
     work = _Frame(np.zeros(cur.shape, np.int32), rows, overlap, blob_ids, plan, state.next_label)
     for b, blob_id in enumerate(blob_ids):
