@@ -303,6 +303,36 @@ def test_a_turn_at_the_border_between_partners_never_seen_together_is_a_switch(
     assert not off.switches
 
 
+def test_a_switch_long_after_a_turn_is_no_mirror_of_it() -> None:
+    """'tilted' seed 6: the turn of cam1's target 7 at the border (frame 50) is cut though a
+    target it voted for changes partner later: cam0's target 2, on the second person, jumps
+    30 px at frame 100 (its legs lost), where cam1 hands that person from target 7 to target
+    9. A mirror of the turn would have been at the same time; this one is 50 frames on and
+    is a switch of its own, so both are cut."""
+    rows = _walked_out_as_another_walked_in()
+    rows = Rows(*(getattr(rows, f)[~((rows.camera == "cam0") & (rows.target == 2))]
+                  for f in ("frame", "camera", "target", "meta", "feet", "height")))
+    f = np.arange(60, 160)
+    x = 200.0 - 2.0 * f  # the second person walks on left
+    later = f >= 100
+    cam0 = Rows(f, np.array(["cam0"] * len(f)), np.full(len(f), 2), np.full(len(f), 2),
+                np.c_[100.0 + x, np.where(later, 130.0, 100.0)], np.full(len(f), 50.0))
+    cam1 = Rows(f[later], np.array(["cam1"] * later.sum()), np.full(later.sum(), 9),
+                np.full(later.sum(), 9), np.c_[140.0 + x[later], np.full(later.sum(), 100.0)],
+                np.full(later.sum(), 50.0))
+    keep = ~((rows.camera == "cam1") & (rows.frame >= 100))
+    rows = _cat(Rows(*(getattr(rows, k)[keep] for k in
+                       ("frame", "camera", "target", "meta", "feet", "height"))), cam0, cam1)
+    sizes = {"cam0": (400, 300), "cam1": (250, 300)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    assert [(sw.track, sw.cut) for sw in res.switches] == [(("cam1", 7), 50), (("cam0", 2), 100)]
+    metas = _meta_of(rows, res.meta)
+    cam1 = rows.camera == "cam1"
+    assert metas["cam0", 1] != metas["cam1", 9]
+    assert set(res.meta[cam1 & (rows.target == 7) & (rows.frame < 50)].tolist()) == metas[
+        "cam0", 1]
+
+
 def test_a_turn_at_the_border_needs_fewer_votes_before_it() -> None:
     """one_edge seed 3: the person who walked out was seen by the other camera for only 19
     frames before. The turn is evidence of its own: 15 votes (``switch_moved_min_votes`` 10)

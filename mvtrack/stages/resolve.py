@@ -383,11 +383,14 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
     camera's targets see this one go from one to the other. The target that changed person
     was put on the other's path: of the two, the one whose feet after the switch lie further
     from its walk before (:meth:`_Tracks.bend`) switched; without such a mirror switch the
-    target's own camera did."""
+    target's own camera did. A mirror happens at the same time: each cut lies within the
+    other's frames. (Generated 'tilted' seed 6: cam0's target 3 turned at the border at frame
+    97, one person walking out as another walked in; cam1's target of the newcomer changed
+    partner at 226, when cam0 lost that newcomer and found it again. The two share a target
+    but 129 frames lie between them, and cam1's was cut instead.)"""
     for other in (sw.before, sw.after):
         for mirror in by_track.get(other, ()):
-            overlap = (sw.frames.start < mirror.frames.stop
-                       and mirror.frames.start < sw.frames.stop)
+            overlap = mirror.cut in sw.frames and sw.cut in mirror.frames
             if sw.track in (mirror.before, mirror.after) and overlap:
                 return tracks.bend(sw.track, sw.cut) > tracks.bend(mirror.track, mirror.cut)
     return True
