@@ -349,6 +349,7 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     is found better. With ``resolve.refit_h`` each pair's H is then fitted again from the
     resolved labels (:func:`refit_h`, in the resolution's ``refit``)."""
     use_h = params.matcher.method != "fov"
+    searched = use_h and (params.resolve.whole_run_h or params.resolve.refit_h)
     sizes = {c.name: c.size for c in spec.cameras}
     final: list[tuple[str, str, np.ndarray | None]] = []
     runs = {}
@@ -357,7 +358,7 @@ def resolve_rows(rows: Rows, pairs: Sequence[dict[str, Any]], params: Params,
     for p in pairs:
         a, b = p["cameras"]
         H = None if p["H"] is None else np.asarray(p["H"], np.float64)
-        runs[a, b] = list(camera_frames(rows, (a, b), sizes)) if use_h else []
+        runs[a, b] = list(camera_frames(rows, (a, b), sizes)) if searched else []
         if use_h and params.resolve.whole_run_h:
             found = comotion[a, b] = whole_run_h(runs[a, b], H, params)
             if found is not None:
