@@ -188,6 +188,31 @@ def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: floa
         assert res[2].merges == ((1, (1, 2)),) and res[3].labels.tolist() == [1, 2]
 
 
+@pytest.mark.parametrize(("part_raised_frac", "top", "kept"),
+                         [(0.3, 46, True), (0.0, 46, False), (0.3, 33, False)])
+def test_a_trailing_leg_with_its_foot_raised_stays_with_its_person(
+        part_raised_frac: float, top: int, kept: bool) -> None:
+    """A striding person's back leg, stretched out behind with the foot raised, comes apart
+    for a frame: its bottom 14 rows (0.23 of the 62 px person) above the person's. With
+    part_raised_frac 0.3 (the default) the 12 px lower leg is a part of the person and keeps
+    its label; with 0 (part_bottom_frac, 0.15, either way), or 25 px tall (0.4 of the person:
+    more like someone standing further back), it becomes a split child and then a merged
+    target of its own (generated 'doors' seed 1 cam0: such a leg tracked beside its person
+    for 12 frames, matched to the person in its place)."""
+    person, leg = (20, 10, 35, 71), (36, top, 50, 57)
+    apart = (37, top, 50, 57)  # column 36 lost
+    frames = [blobs(person, leg), blobs(person, apart), blobs(person, leg), blobs(person, leg)]
+    cfg = replace(CFG, part_raised_frac=part_raised_frac)
+    state, res = tracker_init(), []
+    for mvo in frames:
+        state, r = track_masks(state, mvo, None, cfg)
+        res.append(r)
+    if kept:
+        assert all(r.labels.tolist() == [1] and not r.splits and not r.merges for r in res)
+    else:
+        assert res[1].splits == ((1, (2,)),) and res[2].merges == ((1, (1, 2)),)
+
+
 @pytest.mark.parametrize(("part_max_height_frac", "kept"), [(0.6, True), (0.5, False)])
 def test_lower_legs_over_half_the_person_rejoin_it(part_max_height_frac: float,
                                                     kept: bool) -> None:

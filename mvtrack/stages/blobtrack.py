@@ -533,8 +533,11 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     j's height to the left, right and below (a trailing leg steps out of the rest of its
     person), under ``part_max_height_frac`` of j's height and of the height the camera's size
     line predicts at its bottom (j may be people stacked one behind the other), its bottom
-    within ``part_bottom_frac`` of j's height from j's bottom. A person behind another is
-    contained too, but stands further back: the feet are higher up."""
+    within ``part_bottom_frac`` of j's height from j's bottom; a part at most
+    ``part_raised_frac`` of j's height tall may end up to that fraction above it (a lower leg
+    stretched out behind, its foot raised). A person behind another is contained too, but
+    stands further back: the feet are higher up (and even a far one is taller than a lower
+    leg of the near one: generated 'crowd' seed 7, three far people side by side)."""
     cfg = ctx.cfg
     x, y, w, h = np.asarray(box_xywh, np.float64).reshape(-1, 4).T
     bottom, reach = y + h, cfg.part_reach_frac * h
@@ -544,7 +547,10 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     part = (
         inside
         & (h[:, None] < cfg.part_max_height_frac * h)
-        & (np.abs(bottom[:, None] - bottom) <= cfg.part_bottom_frac * h)
+        & (bottom[:, None] - bottom <= cfg.part_bottom_frac * h)
+        & ((bottom - bottom[:, None] <= cfg.part_bottom_frac * h)
+           | ((bottom - bottom[:, None] <= cfg.part_raised_frac * h)
+              & (h[:, None] <= cfg.part_raised_frac * h)))
     )
     person = None if ctx.size_model is None else ctx.size_model.height_at(bottom)
     if person is not None:
