@@ -544,13 +544,13 @@ def _legs_of(box_xywh: np.ndarray, ctx: _Inputs) -> np.ndarray:
     grown = np.c_[x - reach, y, w + 2 * reach, h + reach]
     inside = (box_intersections(box_xywh, grown)
               >= cfg.part_contained_frac * np.maximum(w * h, 1e-9)[:, None])
+    rise = bottom - bottom[:, None]  # [i, j]: how far box i ends above box j's bottom
+    raised = (h[:, None] <= cfg.part_raised_frac * h) & (rise <= cfg.part_raised_frac * h)
     part = (
         inside
         & (h[:, None] < cfg.part_max_height_frac * h)
-        & (bottom[:, None] - bottom <= cfg.part_bottom_frac * h)
-        & ((bottom - bottom[:, None] <= cfg.part_bottom_frac * h)
-           | ((bottom - bottom[:, None] <= cfg.part_raised_frac * h)
-              & (h[:, None] <= cfg.part_raised_frac * h)))
+        & (rise >= -cfg.part_bottom_frac * h)
+        & ((rise <= cfg.part_bottom_frac * h) | raised)
     )
     person = None if ctx.size_model is None else ctx.size_model.height_at(bottom)
     if person is not None:
