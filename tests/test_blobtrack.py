@@ -143,20 +143,13 @@ def test_torso_and_legs_walking_in_at_the_side_border_reunite() -> None:
     apart = blobs((W - 4, 30, W - 1, 46), (W - 5, 50, W - 1, 65))  # torso, legs
     frames = [apart, apart] + [blobs((W - 8 - 2 * t, 30, W - 1, 65)) for t in range(3)]
     people_36 = SizeModel(line=(0.0, 36.0))
-
-    def track(frames: list[np.ndarray], sizes: SizeModel | None) -> list:
-        state, res = tracker_init(), []
-        for mvo in frames:
-            state, r = track_masks(state, mvo, None, CFG, sizes)
-            res.append(r)
-        return res
-
-    res = track(frames, people_36)
+    res = track_with(frames, people_36)
     assert res[0].labels.tolist() == [1, 2]
     assert res[2].labels.tolist() == [2] and res[2].merges == ()
     assert res[2].reunions == ((2, (1,)),) and res[2].retirements == (1,)
     assert all(r.labels.tolist() == [2] and r.births == () for r in res[3:])
-    for other in (track(frames, None), track([np.roll(f, -40, axis=1) for f in frames], people_36)):
+    inside = [np.roll(f, -40, axis=1) for f in frames]
+    for other in (track_with(frames, None), track_with(inside, people_36)):
         assert other[2].merges == ((1, (1, 2)),) and other[2].reunions == ()
 
 
