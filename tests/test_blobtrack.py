@@ -166,11 +166,7 @@ def test_a_leg_that_comes_apart_stays_with_its_person(part_max_height_frac: floa
         blobs(*person, (30, 51, 34, 72)),
         blobs(*person, (30, 51, 34, 72)),
     ]
-    cfg = replace(CFG, part_max_height_frac=part_max_height_frac)
-    state, res = tracker_init(), []
-    for mvo in frames:
-        state, r = track_masks(state, mvo, None, cfg)
-        res.append(r)
+    res = track_with(frames, cfg=replace(CFG, part_max_height_frac=part_max_height_frac))
     if part_max_height_frac:
         assert all(r.labels.tolist() == [1] and not r.splits for r in res)
         assert not any(r.births for r in res[1:])
@@ -195,11 +191,7 @@ def test_a_trailing_leg_with_its_foot_raised_stays_with_its_person(
     person, leg = (20, 10, 35, 71), (36, top, 50, 57)
     apart = (37, top, 50, 57)  # column 36 lost
     frames = [blobs(person, leg), blobs(person, apart), blobs(person, leg), blobs(person, leg)]
-    cfg = replace(CFG, part_raised_frac=part_raised_frac)
-    state, res = tracker_init(), []
-    for mvo in frames:
-        state, r = track_masks(state, mvo, None, cfg)
-        res.append(r)
+    res = track_with(frames, cfg=replace(CFG, part_raised_frac=part_raised_frac))
     if kept:
         assert all(r.labels.tolist() == [1] and not r.splits and not r.merges for r in res)
     else:
@@ -756,10 +748,11 @@ def stacked_pair(back_dy: int) -> np.ndarray:
     return labels.astype(np.int32)
 
 
-def track_with(frames: list[np.ndarray], size_model: SizeModel | None) -> list:
+def track_with(frames: list[np.ndarray], size_model: SizeModel | None = None,
+               cfg: TrackerConfig = CFG) -> list:
     state, results = tracker_init(), []
     for mvo in frames:
-        state, r = track_masks(state, mvo, None, CFG, size_model)
+        state, r = track_masks(state, mvo, None, cfg, size_model)
         results.append(r)
     return results
 
