@@ -524,7 +524,8 @@ _SWEEP_HEADS = {"idf1": "IDF1", "idf1_loss_identity": "ID loss", "consistency": 
                 "h_p90_px_max": "H p90", "h_end_p90_px_max": "end p90",
                 "h_first_frame_max": "H at", "pairs_without_h": "no H",
                 "whole_run_h_used": "WR H",
-                "fov_line_px_max": "line px", "occlusion_recovery": "occl"}
+                "fov_line_px_max": "line px", "fov_line_end_px_max": "end line",
+                "occlusion_recovery": "occl"}
 
 
 def _print_sweep(rows: list[dict[str, Any]], means: list[dict[str, Any]]) -> None:

@@ -476,7 +476,8 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
     """A `pairs.json` object with what the whole-run labels learned of its geometry, where
     they were resolved with homographies. ``H_whole_run`` as the resolution found it (:func:
     `whole_run_h`): null (no hypothesis), or ``{"H", "links" ([A label, B label] pairs),
-    "candidates" (its inliers), "found_share", "final_found_share" (of ``H``), "used"}``;
+    "candidates" (its inliers), "found_share", "final_found_share" (of ``H``), "fov_lines"
+    (:func:`_lines_through`), "used" (by the labels, and handed on unless the refit is)}``;
     ``H_refit`` (:func:`refit_h`): ``{"H" (null when the fit failed, with "reason"),
     "markers", "inliers", "quality_px", "fov_lines" (:func:`_lines_through`), "found_share",
     "in_use_found_share" (of the H the labels used), "used" (handed on: `--geometry` takes its
@@ -489,13 +490,15 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
             "H": found.hypothesis.H_b_from_a.tolist(),
             "links": [list(link) for link in found.hypothesis.links],
             "candidates": len(found.hypothesis.markers), "found_share": found.found_share,
-            "final_found_share": found.final_share, "used": found.used}
+            "final_found_share": found.final_share,
+            "fov_lines": _lines_through(found.hypothesis.H_b_from_a, pair, "whole_run"),
+            "used": found.used}
     if res is not None and key in res.refit:
         refit = res.refit[key]
         est = refit.estimate
         pair["H_refit"] = ({"H": est.H_b_from_a.tolist(), "inliers": int(est.inliers.sum()),
                             "quality_px": est.quality_px,
-                            "fov_lines": _lines_through(est.H_b_from_a, pair)}
+                            "fov_lines": _lines_through(est.H_b_from_a, pair, "refit")}
                            if isinstance(est, HomographyEstimate)
                            else {"H": None, "reason": est.reason}) | {
             "markers": refit.markers, "found_share": refit.found_share,
@@ -503,9 +506,10 @@ def _with_whole_run_geometry(pair: dict[str, Any], res: Resolution | None) -> di
     return pair
 
 
-def _lines_through(H_b_from_a: np.ndarray, pair: Mapping[str, Any]) -> list[dict[str, Any]]:
+def _lines_through(H_b_from_a: np.ndarray, pair: Mapping[str, Any],
+                   source: str) -> list[dict[str, Any]]:
     """A `pairs.json` object's FOV lines, those its H gave (source "homography": the other
-    camera's border through H) given again through ``H_b_from_a`` (source "refit")."""
+    camera's border through H) given again through ``H_b_from_a`` (with ``source``)."""
     out = []
     for line in pair.get("fov_lines", []):
         if line.get("source") != "homography":
@@ -515,7 +519,7 @@ def _lines_through(H_b_from_a: np.ndarray, pair: Mapping[str, Any]) -> list[dict
         H = H_b_from_a if seen == 1 else np.linalg.inv(H_b_from_a)
         width, height = pair["sizes"][1 - seen]
         out.append(line | {"line": list(border_line(H, line["side"], (width, height))),
-                           "source": "refit"})
+                           "source": source})
     return out
 
 

@@ -45,7 +45,7 @@ __all__ = [
 COLUMNS = ("idf1", "idf1_loss_identity", "consistency", "idf1_online", "recall_min",
            "precision_min", "foot_median_px_max", "h_median_px_max", "h_p90_px_max",
            "h_end_p90_px_max", "h_first_frame_max", "pairs_without_h", "whole_run_h_used",
-           "fov_line_px_max", "occlusion_recovery")
+           "fov_line_px_max", "fov_line_end_px_max", "occlusion_recovery")
 """The figures of a run (:func:`summary_row`), in table order."""
 
 
@@ -337,17 +337,16 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
     (median, p90) and first valid H frame over the pairs that have one, how many pairs have
     none, the worst p90 of the H a pair hands on (`mvtrack.io.results.handed_on`), how many
     pairs' whole-run labels used the whole-run H (`H_whole_run`), the worst
-    learned FOV line's mean error (lines seen over at least 40 px) and
-    occlusion recovery."""
+    learned FOV line's mean error (lines seen over at least 40 px), the same of the lines
+    handed on, and occlusion recovery."""
     cams = list(metrics.get("cameras", {}).values())
     labels = metrics.get("labels", {})
     online = metrics.get("labels_online", {})
     pairs = metrics.get("pairs", [])
     with_h = [p for p in pairs if p.get("first_valid_H") is not None
               and p.get("transfer_error_px", {}).get("median") is not None]
-    lines = [ln["error_px_mean"] for p in pairs for ln in p.get("fov_lines", [])
-             if ln.get("learned") and (ln.get("visible_length_px") or 0) >= 40
-             and ln.get("error_px_mean") is not None]
+    judged = [ln for p in pairs for ln in p.get("fov_lines", [])
+              if ln.get("learned") and (ln.get("visible_length_px") or 0) >= 40]
     return {
         "idf1": _known(labels.get("idf1_global")),
         "idf1_loss_identity": _known(labels.get("idf1_global_loss_identity")),
@@ -363,7 +362,8 @@ def summary_row(metrics: Mapping[str, Any]) -> dict[str, Any]:
         "h_first_frame_max": _frame(_worst(max, [p["first_valid_H"]["frame"] for p in with_h])),
         "pairs_without_h": len(pairs) - len(with_h),
         "whole_run_h_used": sum(bool(p.get("whole_run_h_used")) for p in pairs),
-        "fov_line_px_max": _worst(max, lines),
+        "fov_line_px_max": _worst(max, [ln.get("error_px_mean") for ln in judged]),
+        "fov_line_end_px_max": _worst(max, [ln.get("handed_on_error_px_mean") for ln in judged]),
         "occlusion_recovery": _known(labels.get("occlusion_recovery")),
     }
 

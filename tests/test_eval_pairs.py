@@ -121,7 +121,8 @@ def test_the_whole_run_h_of_a_pair_without_h_is_scored(truth) -> None:  # type: 
 
 
 def test_the_refit_h_and_its_lines_are_scored_beside_the_runs(truth) -> None:  # type: ignore[no-untyped-def]
-    """The run's H and its line of A's right border in B are 4 px off; the refit's are exact."""
+    """The run's H and its line of A's right border in B are 4 px off; the refit's are exact;
+    the lines handed on are the refit's, the whole-run H's (2 px off) or the run's."""
     off = SHIFT.copy()
     off[0, 2] += 4.0
     line = {"seen_in": "b", "edge_of": "a", "side": "right", "events": 5, "from_frame": 4}
@@ -134,6 +135,17 @@ def test_the_refit_h_and_its_lines_are_scored_beside_the_runs(truth) -> None:  #
     assert scored["error_px_mean"] == pytest.approx(4.0)
     assert scored["refit_error_px_mean"] == pytest.approx(0.0, abs=1e-9)
     assert m["refit_fov_line_error_px_mean_worst"] == pytest.approx(0.0, abs=1e-9)
+    assert scored["handed_on_error_px_mean"] == pytest.approx(0.0, abs=1e-9)  # the refit's
+    # Handed on: the whole-run H's lines where the labels used it, else the run's own.
+    whole_run = {"H": SHIFT.tolist(), "used": True,
+                 "fov_lines": [line | {"line": [1.0, 0.0, -(239.5 - 2.0)]}]}
+    for used, want in ((True, 2.0), (False, 4.0)):
+        other = pair | {"H_refit": pair["H_refit"] | {"used": False},
+                        "H_whole_run": whole_run | {"used": used}}
+        (m,) = pair_metrics(truth, [other])
+        (scored,) = [x for x in m["fov_lines"] if x["learned"]]
+        assert scored["handed_on_error_px_mean"] == pytest.approx(want)
+        assert m["handed_on_fov_line_error_px_mean_worst"] == pytest.approx(want)
 
 
 def test_the_h_handed_on_is_the_refit_else_the_whole_run_h_the_labels_used(truth) -> None:  # type: ignore[no-untyped-def]

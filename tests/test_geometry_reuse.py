@@ -110,19 +110,30 @@ def test_a_pair_stored_the_other_way_round_is_turned_around() -> None:
 
 def test_the_h_handed_on_is_the_refit_else_the_one_the_whole_run_labels_used(
         tmp_path: Path) -> None:
-    """`read_pairs` gives the H a run hands on: its refit where used; else the whole-run
-    co-motion H where the labels used it (it explained more than the run's own); else H."""
+    """`read_pairs` gives the H a run hands on, with the FOV lines through it: its refit
+    where used; else the whole-run co-motion H where the labels used it (it explained more
+    than the run's own); else H."""
     H, wr, refit = (np.diag([1.0, 1.0, 1.0]) * k for k in (1.0, 2.0, 3.0))
+
+    def lines(c: float) -> list[dict]:
+        return [{"seen_in": "cam1", "edge_of": "cam0", "side": "left", "line": [1.0, 0.0, c],
+                 "events": 4}]
+
     pair = {"cameras": ["cam0", "cam1"], "H": H.tolist(), "markers": 12,
-            "H_whole_run": {"H": wr.tolist(), "candidates": 40, "used": True},
-            "H_refit": {"H": refit.tolist(), "markers": 90, "used": False}}
+            "fov_lines": lines(-10.0),
+            "H_whole_run": {"H": wr.tolist(), "candidates": 40, "used": True,
+                            "fov_lines": lines(-20.0)},
+            "H_refit": {"H": refit.tolist(), "markers": 90, "used": False,
+                        "fov_lines": lines(-30.0)}}
     path = tmp_path / "pairs.json"
-    for used, (want, markers) in (((True, False), (wr, 40)), ((True, True), (refit, 90)),
-                                  ((False, False), (H, 12))):
+    for used, (want, markers, c) in (((True, False), (wr, 40, -20.0)),
+                                     ((True, True), (refit, 90, -30.0)),
+                                     ((False, False), (H, 12, -10.0))):
         pair["H_whole_run"]["used"], pair["H_refit"]["used"] = used  # type: ignore[index]
         path.write_text(json.dumps([pair]))
         (learned,) = read_pairs(path)
         assert np.allclose(learned.H_b_from_a, want) and learned.markers == markers
+        assert learned.lines == (("cam1", "cam0", "left", (1.0, 0.0, c), 4),)
 
 
 def test_the_viewer_takes_the_geometry_too(runs: dict, tmp_path: Path) -> None:

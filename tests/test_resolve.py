@@ -727,6 +727,10 @@ def test_the_refit_hands_on_the_fov_lines_its_h_gives(tmp_path) -> None:
     assert off_px(from_h["line"]) > 4.0 and off_px(left["line"]) < 1.0
     (learned,) = read_pairs(tmp_path / "pairs.json")
     assert [line[3] for line in learned.lines] == [tuple(left["line"]), tuple(right["line"])]
+    whole_run = pairs[0]["H_whole_run"]  # its H's lines too, in case it is handed on
+    left, right = whole_run["fov_lines"]
+    assert right == from_events and left["source"] == "whole_run"
+    assert left["line"] == list(border_line(np.array(whole_run["H"]), "left", (320, 240)))
 
 
 def test_a_refit_without_markers_fails_with_a_reason_and_the_h_in_use_is_handed_on(

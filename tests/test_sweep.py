@@ -52,8 +52,10 @@ def test_plan_errors_name_what_is_wrong(tmp_path: Path) -> None:
 def _metrics(idf1: float, p90: float | None) -> dict:
     pair_h = {"first_valid_H": {"frame": 125}, "transfer_error_px": {"median": 2.0, "p90": p90},
               "handed_on_transfer_error_px": {"median": 2.0, "p90": p90},
-              "fov_lines": [{"learned": True, "visible_length_px": 80, "error_px_mean": 4.5},
-                            {"learned": True, "visible_length_px": 20, "error_px_mean": 30.0}]}
+              "fov_lines": [{"learned": True, "visible_length_px": 80, "error_px_mean": 4.5,
+                             "handed_on_error_px_mean": 2.5},
+                            {"learned": True, "visible_length_px": 20, "error_px_mean": 30.0,
+                             "handed_on_error_px_mean": 30.0}]}
     no_h = {"first_valid_H": None, "transfer_error_px": {"median": None, "p90": None},
             "fov_lines": [{"learned": False, "visible_length_px": 90, "error_px_mean": None}],
             "whole_run_h_used": True,
@@ -80,6 +82,7 @@ def test_summary_row_takes_the_worst_camera_and_pair() -> None:
     assert row["pairs_without_h"] == 1 and row["whole_run_h_used"] == 1
     assert row["h_end_p90_px_max"] == 4.5  # the refit handed on (4.0), not the one left (9.0)
     assert row["fov_line_px_max"] == 4.5  # the 20 px line is too short to judge
+    assert row["fov_line_end_px_max"] == 2.5  # the lines of the H handed on
     assert row["occlusion_recovery"] is None  # NaN: no occlusion episode
 
 

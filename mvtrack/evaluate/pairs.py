@@ -14,8 +14,8 @@ For each pair of ``pairs.json`` whose two cameras have a ground homography in
 - FOV events and markers made before the first valid homography, and its frame;
 - the transfer error of ``H_whole_run`` (the whole run's co-motion H) and ``H_refit`` (H fitted
   again from the whole-run labels) too, where there is one, that of the H the run hands on
-  (:func:`~mvtrack.io.results.handed_on`), and the error of the refit's FOV lines
-  (``refit_error_px_mean`` beside each line's).
+  (:func:`~mvtrack.io.results.handed_on`), and the error of the refit's FOV lines and of
+  those handed on (``refit_error_px_mean``, ``handed_on_error_px_mean`` beside each line's).
 
     metrics = pair_metrics(truth, json.loads((results / "pairs.json").read_text()))
 """
@@ -211,6 +211,9 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
     learned = {(x["seen_in"], x["side"]): x for x in pair.get("fov_lines", [])}
     refit = {(x["seen_in"], x["side"]): x
              for x in (pair.get("H_refit") or {}).get("fov_lines", [])}
+    key = handed_on(pair)
+    ends = learned if key == "H" else {(x["seen_in"], x["side"]): x
+                                       for x in pair[key].get("fov_lines", [])} or learned
     out = []
     for i, seen in enumerate(names):
         edge = names[1 - i]
@@ -233,6 +236,8 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
                 row["events"] = line["events"]
             if (seen, side) in refit and seg is not None:
                 row["refit_error_px_mean"] = line_error_px(seg, refit[seen, side]["line"])[0]
+            if (seen, side) in ends and seg is not None:
+                row["handed_on_error_px_mean"] = line_error_px(seg, ends[seen, side]["line"])[0]
             out.append(row)
     return out
 
@@ -261,6 +266,8 @@ def pair_metrics(
         lines = _fov_lines(truth, pair, pair_sizes)
         errors = [x["error_px_mean"] for x in lines if x["error_px_mean"] is not None]
         refit_errors = [x["refit_error_px_mean"] for x in lines if "refit_error_px_mean" in x]
+        end_errors = [x["handed_on_error_px_mean"] for x in lines
+                      if "handed_on_error_px_mean" in x]
         first = pair.get("H_first")
         out.append(
             {"cameras": [a, b], "H_from_frame": pair.get("H_from_frame")}
@@ -269,6 +276,7 @@ def pair_metrics(
                 "fov_lines": lines,
                 "fov_line_error_px_mean_worst": max(errors) if errors else None,
                 "refit_fov_line_error_px_mean_worst": max(refit_errors) if refit_errors else None,
+                "handed_on_fov_line_error_px_mean_worst": max(end_errors) if end_errors else None,
                 "first_valid_H": first,
                 "markers": pair.get("markers"),
                 "fov_events": pair.get("fov_events"),

@@ -266,8 +266,8 @@ class LearnedPair:
     cameras: (A, B); H_b_from_a: (3, 3) float64 or None, the H the run handed on (its
     ``H_refit`` where that is used, else the H its whole-run labels used: ``H_whole_run``
     where that is used, else ``H``); markers: markers (or candidates) behind it;
-    lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line (the refit's
-    where it is used)
+    lines: (seen_in, edge_of, side, (a, b, c), events) per learned FOV line (those of the H
+    handed on: lines from the pair's H are given again through it)
     """
 
     cameras: tuple[str, str]
@@ -321,9 +321,9 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     if key != "H":
         H = _matrix(obj[key].get("H"), f"{where}: {key!r} is used, its 'H'")
         markers = int(obj[key].get("markers", obj[key].get("candidates", 0)))
-    if key == "H_refit":
+    if key != "H":
         lines = _lines(obj[key].get("fov_lines", obj.get("fov_lines", [])),
-                       f"{where}: H_refit's fov_lines")
+                       f"{where}: {key}'s fov_lines")
     return LearnedPair((cams[0], cams[1]), H, markers, lines)
 
 
