@@ -566,8 +566,9 @@ class TrackerConfig(_Checked):
     # 0.962 -> 0.959, pair s1 +0.001, mean +0.0002. With the top border too, doors s0 lost 0.010
     # (a far person cut by the top, shrunk by the division, was taken for gone).
     merge_exit: bool = param(
-        True, "a merged target whose predicted centroid is past the left, right or bottom "
-        "border has left (it retires; its sliver of the blob stays unlabelled)",
+        True, "a merged target whose template, at its predicted place, has its centre past the "
+        "left, right or bottom border has left (it retires; its sliver of the blob stays "
+        "unlabelled)",
     )
     # A person walking behind a pillar while merged with someone in front of it kept a
     # target: the division gave it a sliver of the other person next to its prediction

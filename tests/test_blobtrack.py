@@ -15,6 +15,8 @@ from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import (
     TargetTrack,
     TrackerState,
+    _Inputs,
+    _leaving,
     _sizes_in_view,
     _template_box,
     group_cuts,
@@ -421,9 +423,10 @@ def test_a_merged_target_walking_out_of_the_bottom_retires_at_the_border(
     merge_exit: bool,
 ) -> None:
     """B (walking down-right) merges with A (walking down slowly) and leaves through the bottom
-    border. Once B's predicted centroid is past the border (frame 19, y 119.6 of 120 rows), B
-    has left: it retires and the pixels the division gives it stay unlabelled, so A's box is
-    still A's; without the rule B holds its label one frame longer."""
+    border. Once the centre of B's template, at its predicted place, is past the border (frame
+    19, y 119.6 of 120 rows), B has left: it retires and the pixels the division gives it
+    stay unlabelled, so A's box is still A's; without the rule B holds its label one frame
+    longer."""
     cfg = replace(CFG, merge_exit=merge_exit)
     state = tracker_init()
     labels, a_boxes, unlabelled, given_b = [], [], [], []
@@ -445,6 +448,45 @@ def test_a_merged_target_walking_out_of_the_bottom_retires_at_the_border(
     assert unlabelled[19] == (505 if merge_exit else 0)  # B's sliver and A's legs behind it
     assert given_b[19] == (0 if merge_exit else 505)
     assert unlabelled[:19] == [0] * 19 and unlabelled[20] == 0
+
+
+def test_a_merged_target_walking_out_at_a_side_border_is_predicted_at_its_speed() -> None:
+    """A (20 px wide) walks out over the left border at 2 px/frame; B walks in there, below
+    it, and rises into it: one blob from frame 13. The part of A in view shrinks and its
+    centroid slows to 1 px/frame, but A's predicted place moves on at 2 px/frame, so the
+    division gives A no more than its own pixels, and A retires at frame 17, once the centre
+    of what was last seen of it is predicted out. Before, A's prediction slowed with its
+    centroid: A took 51 and 104 of B's pixels in frames 17 and 18 and retired at 19."""
+    frames, a_px = [], []
+    for t in range(22):
+        a = np.zeros((H, W), bool)
+        a[10:60, max(20 - 2 * t, 0) : max(40 - 2 * t, 0)] = True
+        b = np.zeros((H, W), bool)
+        if t >= 8:
+            b[86 - 2 * t : 134 - 2 * t, : 2 * t - 14] = True
+        frames.append(ndimage.label(a | b)[0].astype(np.int32))
+        a_px.append(int(a.sum()))
+    res = track_with(frames)
+    assert [r.labels.tolist() for r in res] == [[1]] * 8 + [[1, 2]] * 9 + [[2]] * 5
+    assert res[17].retirements == (1,) and [len(r.merge_divisions) for r in res[13:18]] == [1] * 5
+    a_x = [float(r.merge_divisions[0].predicted_xy[0, 0]) for r in res[13:18]]
+    assert np.allclose(np.diff(a_x), -2.0)
+    a_given = [int(r.merge_divisions[0].assigned_px[0]) for r in res[13:17]]
+    assert all(g <= 1.01 * n for g, n in zip(a_given, a_px[13:17], strict=True))
+
+
+@pytest.mark.parametrize(("box", "seen_whole", "vx", "side"), [
+    ((-0.5, 10, 8, 40), True, -2.0, -1),   # cut by the left border, walking out: leaving
+    ((-0.5, 10, 8, 40), True, 2.0, 0),     # walking back in
+    ((-0.5, 10, 8, 40), False, -2.0, 0),   # born there: walking in, its centroid moving left
+    ((W - 8.5, 10, 8, 40), True, 2.0, 1),  # the right border
+    ((4.5, 10, 8, 40), True, -2.0, 0),     # in view
+])
+def test_a_target_walks_out_when_seen_whole_and_moving_out(
+        box: tuple[float, ...], seen_whole: bool, vx: float, side: int) -> None:
+    track = TargetTrack(label=1, centroids_xy=np.array([[4.0 - vx, 30.0], [4.0, 30.0]]),
+                        box_xywh=np.array(box), seen_whole=seen_whole)
+    assert _leaving(track, _Inputs(None, CFG, None, W)) == side
 
 
 def test_bad_inputs_are_named() -> None:

@@ -19,20 +19,20 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    divided among them (:func:`_divide_blob`) and each keeps its label while merged. A merged
    target that receives no pixel is fully occluded and is retired, and so is one given under
    ``merge_hidden_frac`` of its template for ``merge_hidden_frames`` frames in a row (behind
-   something that is not foreground, it was fed a sliver of its neighbour); one predicted
-   past the left, right or bottom border has walked out and is retired too (``merge_exit``;
-   the pixels the division gives it stay unlabelled, not someone else's). Targets that were parts of
-   one person (stacked head and body, or a leg inside its person's box) reunite instead: the
-   largest in view keeps its label (:func:`_reunite`, ``reunite_fragments``; of one walking
-   out over the left, right or bottom border only the part of its template still inside
-   counts). Stacked parts taller together than the camera's size line says a person is there
-   are two people, one behind the other, and stay a merge (``fragment_max_height_frac``; needs
-   ``size_model``). A part cut from a target by a group cut (rule 0) that shares one merged
-   blob with it, the blob showing one head, for ``group_rejoin_frames`` frames in a row
-   reunites with it too: the cut was false. So does a merged target whose share of the blob
-   has been a leg part of the blob for ``part_merge_frames`` frames in a row (born on a leg or
-   a shadow patch, so its template is no leg of its person's and the merge did not reunite
-   it).
+   something that is not foreground, it was fed a sliver of its neighbour); one whose template
+   is predicted more than half past the left, right or bottom border has walked out and is
+   retired too (``merge_exit``; the pixels the division gives it stay unlabelled, not someone
+   else's). Targets that were parts of one person (stacked head and body, or a leg inside its
+   person's box) reunite instead: the largest in view keeps its label (:func:`_reunite`,
+   ``reunite_fragments``; of one walking out over the left, right or bottom border only the part
+   of its template still inside counts). Stacked parts taller together than the camera's size
+   line says a person is there are two people, one behind the other, and stay a merge
+   (``fragment_max_height_frac``; needs ``size_model``). A part cut from a target by a group cut
+   (rule 0) that shares one merged blob with it, the blob showing one head, for
+   ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false. So does a
+   merged target whose share of the blob has been a leg part of the blob for
+   ``part_merge_frames`` frames in a row (born on a leg or a shadow patch, so its template is no
+   leg of its person's and the merge did not reunite it).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
@@ -49,7 +49,11 @@ under the target's appearance histogram (learned while it was alone); the best t
 pixel. Without colour, a pixel inside several predictions goes to the front-most (lowest bottom
 edge: nearest the camera), a pixel inside none to the nearest. The merged target's centroid is
 then corrected by how far its assigned pixels sit from the part of its prediction that the other
-targets do not explain, so the prediction follows the target through the merge.
+targets do not explain, so the prediction follows the target through the merge. Someone walking
+out over the left or right border (:func:`_leaving`) is the exception: the part in view shrinks
+and changes shape, its centroid slows to half the person's speed and stops, and a newcomer
+walking in there would keep a stalled prediction fed ('three' seed 2 cam0 followed one for 150
+frames). Its x moves on at its velocity instead, merged or not (``TargetTrack.anchor_dx``).
 
 Detections (:func:`track_boxes`, in :mod:`mvtrack.stages.boxtrack`, importable from here too):
 the same rules on boxes, except that continuations are chosen
@@ -103,11 +107,13 @@ class TargetTrack:
     """What the tracker remembers of one live target.
 
     label:                 int >= 1
-    centroids_xy:          (k, 2) float64, recent centroids (boxes: box centres), oldest first,
-                           k <= merge_motion_frames + 1
+    centroids_xy:          (k, 2) float64, recent positions (boxes: box centres), oldest first,
+                           k <= merge_motion_frames + 1: the mask's centroid shifted right by
+                           ``anchor_dx``
     box_xywh:              (4,) float64, the target's box in the last frame
     template:              (h, w) bool or None, its mask the last frame it was alone (masks only)
-    template_centroid_xy:  (2,) float64, the template's centroid in template pixel coordinates
+    template_centroid_xy:  (2,) float64, the position in template pixel coordinates (the
+                           template's centroid shifted right by ``anchor_dx``)
     colour_hist:           (bins**channels,) float64 summing to 1, or None before any colour
     merged:                bool, whether it was part of a merge in the last frame
     external_id:           int, the detection's own track id, -1 when tracked by the rules
@@ -118,6 +124,11 @@ class TargetTrack:
                            the blob (:func:`_legs_of`)
     hidden:                int, frames in a row it was merged and given under
                            ``merge_hidden_frac`` of its template's pixels
+    anchor_dx:             float, how far right of the mask's centroid the position lies. It
+                           changes only while someone walks out over the left or right border
+                           (:func:`_leaving`): then the position moves on at their velocity
+    seen_whole:            bool, whether one of its unmerged masks touched neither the left
+                           nor the right border (someone born at one is walking in until then)
     """
 
     label: int
@@ -132,6 +143,8 @@ class TargetTrack:
     rejoined: int = 0
     as_part: int = 0
     hidden: int = 0
+    anchor_dx: float = 0.0
+    seen_whole: bool = False
 
     def velocity_xy(self) -> np.ndarray:
         """(2,) float64 px/frame: mean displacement over the remembered centroids."""
@@ -141,7 +154,7 @@ class TargetTrack:
         return (c[-1] - c[0]) / (len(c) - 1)
 
     def predicted_xy(self) -> np.ndarray:
-        """(2,) float64: the centroid expected this frame (constant velocity)."""
+        """(2,) float64: the position expected this frame (constant velocity)."""
         return self.centroids_xy[-1] + self.velocity_xy()
 
 
@@ -172,7 +185,8 @@ class MergeDivision:
 
     blob_id:          MVO blob id (masks) or detection row (boxes)
     labels:           (T,) int64, the merged targets
-    predicted_xy:     (T, 2) float64, each target's predicted centroid
+    predicted_xy:     (T, 2) float64, each target's predicted centroid (its template's,
+                      placed where it is expected)
     assigned_px:      (T,) int64, pixels given to each target (boxes: 1 for the target that got
                       the detection box, 0 for those that coast on their prediction)
     by_cover_px:      pixels covered by exactly one prediction, and given to it
@@ -462,7 +476,7 @@ def _corrected_centroid(
     my, mx = np.nonzero(mine)
     got = np.array([mx.mean(), my.mean()]) + origin
     if not visible.any():
-        return got
+        return got + np.array([track.anchor_dx, 0.0])
     vy, vx = np.nonzero(visible)
     return pred + got - (np.array([vx.mean(), vy.mean()]) + origin)
 
@@ -630,15 +644,17 @@ def _not_hidden(heirs: tuple[int, ...], targets: tuple[TargetTrack, ...], work: 
 
 def _walked_out(tracks: list[TargetTrack], shape: tuple[int, ...], cfg: TrackerConfig
                 ) -> frozenset[int]:
-    """Labels of the merged targets predicted past the left, right or bottom frame border (the
-    centroid of what was left of them in view, moved on): they have left, though the division
-    still gives them the sliver at the border (none when all of them have). Not the top: a far
-    person cut by it keeps the feet in view, and a division that shrinks the part seen moves
-    its centroid up, not the person."""
+    """Labels of the merged targets whose template, at its predicted place, has its centre past
+    the left, right or bottom frame border (more than half of what was last seen of them,
+    moved on, is out): they have left, though the division still gives them the sliver at
+    the border (none when all of them have). Not the top: a far person cut by it keeps the
+    feet in view, and a division that shrinks the part seen moves its centroid up, not the
+    person."""
     if not cfg.merge_exit:
         return frozenset()
     h, w = shape[:2]
-    out = frozenset(t.label for t in tracks for x, y in [t.predicted_xy()]
+    centres = [bx[:2] + bx[2:] / 2 for bx in map(_template_box, tracks)]
+    out = frozenset(t.label for t, (x, y) in zip(tracks, centres, strict=True)
                     if x < -0.5 or x > w - 0.5 or y > h - 0.5)
     return out if len(out) < len(tracks) else frozenset()
 
@@ -832,7 +848,10 @@ def _merge_blob(
         assigned[i] = int(mine.sum())
         if assigned[i]:
             visible = pred[i] & blob & ((who == i) | (who < 0))  # not explained by the others
-            work.centroids[t.label] = _corrected_centroid(t, mine, visible, origin)
+            xy = _corrected_centroid(t, mine, visible, origin)
+            if _leaving(t, ctx):  # its x moves on at its velocity
+                xy[0] = t.predicted_xy()[0]
+            work.centroids[t.label] = xy
             work.merged.add(t.label)
             work.blob_of[t.label] = blob_id
     work.merges.append((blob_id, tuple(int(v) for v in labels)))
@@ -840,7 +859,7 @@ def _merge_blob(
         MergeDivision(
             blob_id=blob_id,
             labels=labels,
-            predicted_xy=np.stack([t.predicted_xy() for t in tracks]),
+            predicted_xy=np.stack([t.predicted_xy() - [t.anchor_dx, 0.0] for t in tracks]),
             assigned_px=assigned,
             **counts,
         )
@@ -885,6 +904,40 @@ def _mask_stats(label_image: np.ndarray) -> tuple[np.ndarray, dict[int, tuple[sl
     return found.labels, found.slices
 
 
+def _side_cut(box_xywh: np.ndarray, cols: int | None) -> int:
+    """-1 when the box touches the frame's left border only, +1 the right border only, 0 when
+    it touches neither (or both, or the width is not known)."""
+    if cols is None:
+        return 0
+    left = box_xywh[0] <= _HALF_PX - 1.0
+    right = box_xywh[0] + box_xywh[2] >= cols - _HALF_PX
+    return int(right) - int(left)
+
+
+def _leaving(track: TargetTrack, ctx: _Inputs) -> int:
+    """The side (-1 left, +1 right) whose border cut the track's last box and toward which it
+    moves, when it has been seen whole (someone walking out), else 0. Someone walking in is
+    not: the part in view grows in every direction, and its centroid may move either way
+    (generated 'doors' seed 0 cam1: a newcomer whose centroid moved left was walked out)."""
+    side = _side_cut(track.box_xywh, ctx.cols)
+    return side if track.seen_whole and side * track.velocity_xy()[0] > 0 else 0
+
+
+def _anchor_dx(old: TargetTrack | None, box: np.ndarray, centroid_x: float,
+               ctx: _Inputs) -> float:
+    """The target's ``anchor_dx`` after an unmerged frame with mask ``box`` and centroid x.
+    While someone walks out over the left or right border (:func:`_leaving`, and still cut
+    by it), their position moves on at their velocity: the part in view changes shape as it
+    shrinks, and its centroid slows to half their speed, then stops. Otherwise the position
+    keeps its offset from the centroid."""
+    if old is None:
+        return 0.0
+    side = _leaving(old, ctx)
+    if side == 0 or _side_cut(box, ctx.cols) != side:
+        return old.anchor_dx
+    return float(old.predicted_xy()[0] - centroid_x)
+
+
 def _new_mask_track(
     old: TargetTrack | None,
     label: int,
@@ -909,12 +962,15 @@ def _new_mask_track(
     if codes is not None and ctx.frame is not None:
         hist = _update_hist(hist, codes[ys, xs], _n_codes(ctx.frame, cfg), cfg)
     base = old or TargetTrack(label=label, centroids_xy=np.zeros((0, 2)), box_xywh=box)
+    dx = _anchor_dx(old, box, origin[0] + local[0], ctx)
     return replace(
         base,
-        centroids_xy=_push_centroid(base, origin + local, cfg),
+        centroids_xy=_push_centroid(base, origin + local + [dx, 0.0], cfg),
         box_xywh=box,
         template=crop.copy(),
-        template_centroid_xy=local,
+        template_centroid_xy=local + [dx, 0.0],
+        anchor_dx=dx,
+        seen_whole=base.seen_whole or _side_cut(box, ctx.cols) == 0,
         colour_hist=hist,
         merged=False,
         hidden=0,
