@@ -1262,7 +1262,12 @@ class ResolveConfig(_Checked):
     # 48 clips of seeds 0-5, resolving the same online rows: one_edge s5 IDF1 0.858 -> 0.998,
     # three s2 0.896 -> 0.986, tilted s3 0.806 -> 0.946, mean 0.918 -> 0.925, no clip worse.
     # Turns anywhere in the view also cut one_edge s4's person who walked out of one view and
-    # back (0.999 -> 0.790).
+    # back (0.999 -> 0.790). Where the target also jumped between the runs, the cut is at the
+    # turn: one_edge s3's cam0 target 1 jumped at frame 141 (a merge glitch) and turned at
+    # 246, where one person walked out and another in; cut at the jump, the first person's
+    # frames 141-245 took the second's meta (IDF1 0.877 -> 0.989 at the turn; seeds 0-11,
+    # refinished, no other clip changes by more than 0.001; on session 43's runs, before
+    # exiting targets were predicted at their speed, one_edge s3 0.978 -> 0.981; PETS the same).
     switch_turn_heights: float = param(
         0.2, "...or if it turned back between the runs, having walked more than this many "
         "heights in 10 frames each way (0 = off)", 0.0, 100.0,

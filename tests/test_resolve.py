@@ -303,6 +303,22 @@ def test_a_turn_at_the_border_between_partners_never_seen_together_is_a_switch(
     assert not off.switches
 
 
+def test_the_turn_places_the_cut_before_a_jump_does() -> None:
+    """'one_edge' seed 3: the target that turned at the border (frame 50) had its feet jump
+    for a frame earlier (45: its legs lost in a merge, 40 px up) between the same runs of
+    votes. The cut is at the turn, where one person walked out and the other in; at the
+    jump it gave the frames between to the second person."""
+    rows = _walked_out_as_another_walked_in()
+    glitch = (rows.camera == "cam1") & (rows.frame == 45)
+    rows.feet[glitch, 1] -= 40.0
+    sizes = {"cam0": (400, 300), "cam1": (250, 300)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    assert [(sw.track, sw.cut) for sw in res.switches] == [(("cam1", 7), 50)]
+    no_turn = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
+                             replace(CFG, switch_turn_heights=0.0), sizes=sizes)
+    assert [(sw.track, sw.cut) for sw in no_turn.switches] == [(("cam1", 7), 45)]
+
+
 def test_a_switch_long_after_a_turn_is_no_mirror_of_it() -> None:
     """'tilted' seed 6: the turn of cam1's target 7 at the border (frame 50) is cut though a
     target it voted for changes partner later: cam0's target 2, on the second person, jumps

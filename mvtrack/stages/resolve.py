@@ -351,8 +351,10 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
     only if the target itself jumped between the runs (feet more than
     ``switch_jump_heights`` of its height from one frame to the next: the label moved to
     someone else) or turned back (:meth:`_Tracks.turn`, ``switch_turn_heights``: one person
-    walked out as another walked in), and its parts are never rejoined. That evidence is
-    enough with shorter runs, of ``switch_moved_min_votes``."""
+    walked out as another walked in), and its parts are never rejoined; the cut is at the
+    turn where there is one, else at the jump (a jump between the same runs may be a glitch,
+    legs lost in a merge, where a turn at the border is where one person left). That evidence
+    is enough with shorter runs, of ``switch_moved_min_votes``."""
     runs: list[list[Any]] = []  # [partner, first frame, last frame, votes]
     for f, partner in partners:
         if runs and runs[-1][0] == partner:
@@ -370,9 +372,9 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
         between = range(p[2] + 1, q[1] + 1)
         if tracks.together(p[0], q[0]) > cfg.max_shared_frames:
             continue
-        if at := (tracks.jump(track, between, cfg.switch_jump_heights)
-                  or (cfg.switch_turn_heights > 0
-                      and tracks.turn(track, between, cfg.switch_turn_heights))):
+        if at := ((cfg.switch_turn_heights > 0
+                   and tracks.turn(track, between, cfg.switch_turn_heights))
+                  or tracks.jump(track, between, cfg.switch_jump_heights)):
             out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
     return sorted(out, key=lambda sw: sw.cut)
 
