@@ -211,7 +211,7 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
     learned = {(x["seen_in"], x["side"]): x for x in pair.get("fov_lines", [])}
     refit = {(x["seen_in"], x["side"]): x
              for x in (pair.get("H_refit") or {}).get("fov_lines", [])}
-    key = handed_on(pair)
+    key = handed_on(pair)  # its lines are handed on (as `read_pairs` reads them)
     ends = learned if key == "H" else {(x["seen_in"], x["side"]): x
                                        for x in pair[key].get("fov_lines", [])} or learned
     out = []

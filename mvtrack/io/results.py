@@ -321,7 +321,6 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     if key != "H":
         H = _matrix(obj[key].get("H"), f"{where}: {key!r} is used, its 'H'")
         markers = int(obj[key].get("markers", obj[key].get("candidates", 0)))
-    if key != "H":
         lines = _lines(obj[key].get("fov_lines", obj.get("fov_lines", [])),
                        f"{where}: {key}'s fov_lines")
     return LearnedPair((cams[0], cams[1]), H, markers, lines)
