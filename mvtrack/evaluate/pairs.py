@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from mvtrack.io import Truth, open_clip
-from mvtrack.io.results import handed_on
+from mvtrack.io.results import handed_on, handed_on_lines
 from mvtrack.stages.homography import apply_homography, transfer_errors
 
 __all__ = [
@@ -211,9 +211,7 @@ def _fov_lines(truth: Truth, pair: Mapping[str, Any], sizes: Any) -> list[dict[s
     learned = {(x["seen_in"], x["side"]): x for x in pair.get("fov_lines", [])}
     refit = {(x["seen_in"], x["side"]): x
              for x in (pair.get("H_refit") or {}).get("fov_lines", [])}
-    key = handed_on(pair)  # its lines are handed on (as `read_pairs` reads them)
-    ends = learned if key == "H" else {(x["seen_in"], x["side"]): x
-                                       for x in pair[key].get("fov_lines", [])} or learned
+    ends = {(x["seen_in"], x["side"]): x for x in handed_on_lines(pair)}
     out = []
     for i, seen in enumerate(names):
         edge = names[1 - i]

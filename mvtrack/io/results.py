@@ -25,8 +25,8 @@ import numpy as np
 
 __all__ = [
     "CUES_HEADER", "TRACKS_HEADER", "CueRows", "LearnedPair", "ResultsWriter", "RowsCollector",
-    "TrackRows", "handed_on", "read_cues", "read_pairs", "read_tracks", "restore_streamed",
-    "rewrite_tracks", "write_pairs",
+    "TrackRows", "handed_on", "handed_on_lines", "read_cues", "read_pairs", "read_tracks",
+    "restore_streamed", "rewrite_tracks", "write_pairs",
 ]
 
 TRACKS_HEADER = (
@@ -321,8 +321,7 @@ def _learned_pair(path: Path, k: int, obj: Any) -> LearnedPair:
     if key != "H":
         H = _matrix(obj[key].get("H"), f"{where}: {key!r} is used, its 'H'")
         markers = int(obj[key].get("markers", obj[key].get("candidates", 0)))
-        lines = _lines(obj[key].get("fov_lines", obj.get("fov_lines", [])),
-                       f"{where}: {key}'s fov_lines")
+        lines = _lines(handed_on_lines(obj), f"{where}: {key}'s fov_lines")
     return LearnedPair((cams[0], cams[1]), H, markers, lines)
 
 
@@ -335,6 +334,14 @@ def handed_on(pair: Mapping[str, Any]) -> str:
         if isinstance(found, dict) and found.get("used"):
             return key
     return "H"
+
+
+def handed_on_lines(pair: Mapping[str, Any]) -> Any:
+    """The FOV line objects a `pairs.json` object hands on: those of its :func:`handed_on` H
+    (the pair's own where that H's object has none)."""
+    key = handed_on(pair)
+    own = pair.get("fov_lines", [])
+    return own if key == "H" else pair[key].get("fov_lines", own)
 
 
 def _lines(entries: Any, where: str) -> tuple[tuple[str, str, str, tuple[float, float, float],

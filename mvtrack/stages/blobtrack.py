@@ -83,6 +83,7 @@ from mvtrack.stages.background import (
     stacked_boxes,
     too_tall_unions,
 )
+from mvtrack.stages.targets import touching_sides
 
 if TYPE_CHECKING:
     from mvtrack.stages.boxtrack import track_boxes
@@ -909,8 +910,7 @@ def _side_cut(box_xywh: np.ndarray, cols: int | None) -> int:
     it touches neither (or both, or the width is not known)."""
     if cols is None:
         return 0
-    left = box_xywh[0] <= _HALF_PX - 1.0
-    right = box_xywh[0] + box_xywh[2] >= cols - _HALF_PX
+    left, right = touching_sides(box_xywh, (cols, 0), 0.0)[0, :2]  # rows do not matter here
     return int(right) - int(left)
 
 
