@@ -319,12 +319,27 @@ def test_the_turn_places_the_cut_before_a_jump_does() -> None:
     assert [(sw.track, sw.cut) for sw in no_turn.switches] == [(("cam1", 7), 45)]
 
 
+def test_no_switch_between_partners_that_are_one_person_lost_and_found() -> None:
+    """'tilted' seed 6: cam0 lost a person in a merge with someone in front (target 3) and
+    found it again 51 frames later (target 6) where its walk led; cam1's target saw the
+    person throughout, and its feet jumped for a frame at a merge glitch in between. cam0's
+    second target continues the first (a stitch's test): one person, not a switch. Here
+    cam1's feet jump 40 px (0.8 heights) at frame 50, between its votes for cam0's targets 1
+    and 2."""
+    rows = _left_and_came_back(0.0)
+    rows.feet[(rows.camera == "cam1") & (rows.frame == 50), 1] += 40.0
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
+    assert not res.switches and len(set(res.meta.tolist())) == 1
+    apart = resolve_labels(rows, [("cam0", "cam1", SHIFT)], replace(CFG, stitch_max_gap_frames=0))
+    assert [(sw.track, sw.cut) for sw in apart.switches] == [(("cam1", 7), 50)]
+
+
 def test_a_switch_long_after_a_turn_is_no_mirror_of_it() -> None:
     """'tilted' seed 6: the turn of cam1's target 7 at the border (frame 50) is cut though a
-    target it voted for changes partner later: cam0's target 2, on the second person, jumps
-    30 px at frame 100 (its legs lost), where cam1 hands that person from target 7 to target
-    9. A mirror of the turn would have been at the same time; this one is 50 frames on and
-    is a switch of its own, so both are cut."""
+    target it voted for changes partner later: cam0's target 2 jumps 45 px at frame 100,
+    where cam1's target 7 ends and target 9 begins, 45 px off target 7's walk (not its
+    continuation). A mirror of the turn would have been at the same time; this one is 50
+    frames on and is a switch of its own, so both are cut."""
     rows = _walked_out_as_another_walked_in()
     rows = Rows(*(getattr(rows, f)[~((rows.camera == "cam0") & (rows.target == 2))]
                   for f in ("frame", "camera", "target", "meta", "feet", "height")))
@@ -332,9 +347,9 @@ def test_a_switch_long_after_a_turn_is_no_mirror_of_it() -> None:
     x = 200.0 - 2.0 * f  # the second person walks on left
     later = f >= 100
     cam0 = Rows(f, np.array(["cam0"] * len(f)), np.full(len(f), 2), np.full(len(f), 2),
-                np.c_[100.0 + x, np.where(later, 130.0, 100.0)], np.full(len(f), 50.0))
+                np.c_[100.0 + x, np.where(later, 145.0, 100.0)], np.full(len(f), 50.0))
     cam1 = Rows(f[later], np.array(["cam1"] * later.sum()), np.full(later.sum(), 9),
-                np.full(later.sum(), 9), np.c_[140.0 + x[later], np.full(later.sum(), 100.0)],
+                np.full(later.sum(), 9), np.c_[140.0 + x[later], np.full(later.sum(), 145.0)],
                 np.full(later.sum(), 50.0))
     keep = ~((rows.camera == "cam1") & (rows.frame >= 100))
     rows = _cat(Rows(*(getattr(rows, k)[keep] for k in
@@ -462,6 +477,22 @@ def test_a_stitch_goes_by_the_walk_not_by_one_bad_last_row() -> None:
     assert len(set(res.meta.tolist())) == 1
     assert [(x.a, x.b, x.source) for x in res.links] == [
         (("cam0", 10, 0), ("cam0", 13, 0), "stitch")]
+
+
+def test_a_stitch_after_a_long_gap_goes_by_a_long_walk() -> None:
+    """doors seed 9: cam0's target 1 walked at 1.2 px a frame, its feet swaying with the
+    stride, and was hidden 36 frames behind the booth; the walk of its last 10 rows put it
+    38 px from where it came out (target 5), that of its last 30 rows within the gate. Here
+    both sway 4 px up and down every 16 frames; the person is 38 px tall (gate 28.5 px)."""
+    parts = []
+    for target, frames in ((1, range(60)), (5, range(96, 156))):
+        r = _walker("cam0", target, target, frames, 100.0, 1.2)
+        sway = 4.0 * np.sin(2 * np.pi * r.frame / 16.0)
+        parts.append(replace(r, feet=r.feet + np.c_[np.zeros(len(sway)), sway],
+                             height=np.full(len(sway), 38.0)))
+    res = resolve_labels(_cat(*parts), [], CFG)
+    assert [(x.a, x.b, x.source) for x in res.links] == [
+        (("cam0", 1, 0), ("cam0", 5, 0), "stitch")]
 
 
 def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
