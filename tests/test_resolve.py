@@ -495,6 +495,20 @@ def test_a_stitch_after_a_long_gap_goes_by_a_long_walk() -> None:
         (("cam0", 1, 0), ("cam0", 5, 0), "stitch")]
 
 
+@pytest.mark.parametrize(("vx", "gap", "stitched"),
+                         [(1.0, 65, True), (1.0, 80, False), (0.0, 65, False), (0.0, 40, True)])
+def test_a_walking_person_is_stitched_after_a_longer_gap(vx: float, gap: int,
+                                                         stitched: bool) -> None:
+    """'pillar' s1: two people walking behind the pillar came out 62 and 66 frames later,
+    beyond stitch_max_gap_frames (50); walking (here 1 px a frame, 0.02 heights), up to
+    stitch_walking_max_gap_frames (75). A target standing still is stitched over 40 frames
+    but not over 65: on PETS, such stitches joined people who stood where others had."""
+    rows = _cat(_walker("cam0", 1, 1, range(40), 100.0, vx),
+                _walker("cam0", 2, 2, range(39 + gap, 100 + gap), 100.0, vx))
+    res = resolve_labels(rows, [], CFG)
+    assert (len(set(res.meta.tolist())) == 1) == stitched
+
+
 def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
     """pair seed 4: cam0's target 7 walked out over the left border; 27 frames later a blob
     stood there, then a newcomer walked in, and stitches made them one person. Target 1 here

@@ -280,7 +280,7 @@ class _Tracks:
         and found again, while another camera's target saw it throughout."""
         ex, ey = (_end_of(self.rows, np.array(list(self.at[t].values())), self.outward)
                   for t in (p, q))
-        return _continues(ex, ey, cfg, 2 * cfg.stitch_max_gap_frames) is not None
+        return _continues(ex, ey, cfg, gap_factor=2) is not None
 
     def median_height(self, p: Track) -> float:
         """The target's median height (px, at least 1)."""
@@ -537,15 +537,19 @@ def _ends(rows: Rows, nodes: list[Node], outward: np.ndarray) -> dict[Node, _End
     return {n: _end_of(rows, np.array(idx), outward) for n, idx in at.items()}
 
 
-def _continues(ex: _Ends, ey: _Ends, cfg: ResolveConfig, max_gap: int) -> float | None:
+def _continues(ex: _Ends, ey: _Ends, cfg: ResolveConfig, gap_factor: int = 1) -> float | None:
     """Whether ``ey`` may go on as ``ex`` (one camera's target, a person hidden a while): it
-    began at most ``max_gap`` frames after ``ex`` ended, ``ex`` did not walk out of the view,
-    and by one of the walks of ``_END_WALK_ROWS`` no longer than the gap (10 rows, and more
-    for longer gaps) ``ey`` began within ``stitch_gate_heights`` of where ``ex``, walked on,
-    would be, walking the same way. Returns how far (in heights) by the 10-row walks, which
-    rank the candidates, or None."""
+    began at most ``stitch_max_gap_frames`` (``stitch_walking_max_gap_frames`` if ``ex`` was
+    walking, ``stitch_walking_min_speed_heights``), times ``gap_factor``, frames after ``ex``
+    ended, ``ex`` did not walk out of the view, and by one of the walks of ``_END_WALK_ROWS``
+    no longer than the gap (10 rows, and more for longer gaps) ``ey`` began within
+    ``stitch_gate_heights`` of where ``ex``, walked on, would be, walking the same way.
+    Returns how far (in heights) by the 10-row walks, which rank the candidates, or None."""
     gap = ey.first - ex.last
-    if ex.walked_out or not 0 < gap <= max_gap:
+    speed = float(np.linalg.norm(ex.ends[-1][1])) / ex.height
+    walking = speed >= cfg.stitch_walking_min_speed_heights
+    limit = cfg.stitch_walking_max_gap_frames if walking else cfg.stitch_max_gap_frames
+    if ex.walked_out or not 0 < gap <= gap_factor * max(limit, cfg.stitch_max_gap_frames):
         return None
     off = []  # per walk: (heights apart, walking the same way)
     for (end_xy, end_v), (start_xy, start_v) in zip(ex.ends, ey.starts, strict=True):
@@ -568,7 +572,7 @@ def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
     back: dict[Node, tuple[float, Node]] = {}
     for x, ex in ends.items():
         for y, ey in ends.items():
-            cost = None if y[0] != x[0] else _continues(ex, ey, cfg, cfg.stitch_max_gap_frames)
+            cost = None if y[0] != x[0] else _continues(ex, ey, cfg)
             if cost is None:
                 continue
             if cost < best.get(x, (np.inf,))[0]:
