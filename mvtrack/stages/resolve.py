@@ -275,9 +275,9 @@ class _Tracks:
             self.at.setdefault((c, t), {})[f] = i
 
     def continues(self, p: Track, q: Track, cfg: ResolveConfig) -> bool:
-        """Whether target ``q`` began where ``p``, walked on, would be (:func:`_continues`),
-        at most twice ``stitch_max_gap_frames`` after it ended: one person its camera lost
-        and found again, while another camera's target saw it throughout."""
+        """Whether target ``q`` began where ``p``, walked on, would be (:func:`_continues`,
+        the gaps doubled: another camera's target saw the person throughout): one person its
+        camera lost and found again."""
         ex, ey = (_end_of(self.rows, np.array(list(self.at[t].values())), self.outward)
                   for t in (p, q))
         return _continues(ex, ey, cfg, gap_factor=2) is not None
@@ -539,18 +539,20 @@ def _ends(rows: Rows, nodes: list[Node], outward: np.ndarray) -> dict[Node, _End
 
 def _continues(ex: _Ends, ey: _Ends, cfg: ResolveConfig, gap_factor: int = 1) -> float | None:
     """Whether ``ey`` may go on as ``ex`` (one camera's target, a person hidden a while): it
-    began at most ``stitch_max_gap_frames`` (``stitch_walking_max_gap_frames`` if ``ex`` was
-    walking, ``stitch_walking_min_speed_heights``), times ``gap_factor``, frames after ``ex``
-    ended, ``ex`` did not walk out of the view, and by one of the walks of ``_END_WALK_ROWS``
-    no longer than the gap (10 rows, and more for longer gaps) ``ey`` began within
-    ``stitch_gate_heights`` of where ``ex``, walked on, would be, walking the same way.
-    Returns how far (in heights) by the 10-row walks, which rank the candidates, or None."""
+    began at most ``gap_factor`` times ``stitch_max_gap_frames`` frames after ``ex`` ended
+    (``stitch_walking_max_gap_frames`` if ``ex`` was walking: its last 30 rows' speed at
+    least ``stitch_walking_min_speed_heights``), ``ex`` did not walk out of the view, and by
+    one of the walks of ``_END_WALK_ROWS`` no longer than the gap (10 rows, and more for
+    longer gaps) ``ey`` began within ``stitch_gate_heights`` of where ``ex``, walked on,
+    would be, walking the same way. Returns how far (in heights) by the 10-row walks, which
+    rank the candidates, or None."""
     gap = ey.first - ex.last
-    speed = float(np.linalg.norm(ex.ends[-1][1])) / ex.height
-    walking = speed >= cfg.stitch_walking_min_speed_heights
-    limit = cfg.stitch_walking_max_gap_frames if walking else cfg.stitch_max_gap_frames
-    if ex.walked_out or not 0 < gap <= gap_factor * max(limit, cfg.stitch_max_gap_frames):
+    longest = max(cfg.stitch_walking_max_gap_frames, cfg.stitch_max_gap_frames)
+    if ex.walked_out or not 0 < gap <= gap_factor * longest:
         return None
+    if gap > gap_factor * cfg.stitch_max_gap_frames and (
+            np.linalg.norm(ex.ends[-1][1]) < cfg.stitch_walking_min_speed_heights * ex.height):
+        return None  # standing still: anyone may stand there by now
     off = []  # per walk: (heights apart, walking the same way)
     for (end_xy, end_v), (start_xy, start_v) in zip(ex.ends, ey.starts, strict=True):
         off.append((float(np.linalg.norm(start_xy - (end_xy + gap * end_v))) / ex.height,
@@ -564,9 +566,8 @@ def _continues(ex: _Ends, ey: _Ends, cfg: ResolveConfig, gap_factor: int = 1) ->
 def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
                   ) -> list[tuple[int, Node, Node]]:
     """(rows of the shorter, earlier node, later node): one camera's target that ended and
-    one that began at most ``stitch_max_gap_frames`` later where the first would be
-    (:func:`_continues`), each the other's only such match: a person hidden behind something
-    for a while."""
+    one that began where the first would be after a while (:func:`_continues`), each the
+    other's only such match: a person hidden behind something for a while."""
     count = Counter(nodes)
     best: dict[Node, tuple[float, Node]] = {}
     back: dict[Node, tuple[float, Node]] = {}
