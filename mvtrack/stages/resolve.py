@@ -269,6 +269,7 @@ class _Tracks:
         self.rows = rows
         self.outward = outward
         self.at_exit = np.asarray(outward.any(axis=1))
+        self._ends: dict[Track, _Ends] = {}
         self.at: dict[Track, dict[int, int]] = {}
         for i, (c, t, f) in enumerate(zip(rows.camera.tolist(), rows.target.tolist(),
                                           rows.frame.tolist(), strict=True)):
@@ -278,9 +279,11 @@ class _Tracks:
         """Whether target ``q`` began where ``p``, walked on, would be (:func:`_continues`,
         the gaps doubled: another camera's target saw the person throughout): one person its
         camera lost and found again."""
-        ex, ey = (_end_of(self.rows, np.array(list(self.at[t].values())), self.outward)
-                  for t in (p, q))
-        return _continues(ex, ey, cfg, gap_factor=2) is not None
+        for t in (p, q):
+            if t not in self._ends:  # a target is the partner of many: its ends once
+                self._ends[t] = _end_of(self.rows, np.array(list(self.at[t].values())),
+                                        self.outward)
+        return _continues(self._ends[p], self._ends[q], cfg, gap_factor=2) is not None
 
     def median_height(self, p: Track) -> float:
         """The target's median height (px, at least 1)."""
