@@ -1241,13 +1241,32 @@ class ResolveConfig(_Checked):
         0.01, "walking: its last 30 rows' velocity at least this many heights a frame", 0.0,
         100.0,
     )
-    # Stitches across a pair with H (one camera's target that walked out of its view, its walk
-    # carried through H to where a target of the other camera began, not on a border: one who
-    # left one view while behind a box in the other) were tried: over the 96 sweep runs
-    # 'three' s8 IDF1 0.979 -> 0.990, 'pillar' s7 0.971 -> 0.976, s11 0.979 -> 0.982, no run
-    # worse (seeds 3-11 mean 0.9572 -> 0.9575); but on PETS (View_001 video + View_003
-    # detections) 0.535 -> 0.526: View_003's tracks break everywhere inside its view, and a
-    # 74-row View_001 target (person 15) was joined to person 14. Not taken.
+    # Hand-offs: stitches across a pair with H (stages/resolve.py). A person lost in one view
+    # (walked out, or lost in a merge) while the other did not see them (behind the pillar,
+    # or just out of its view) comes out there a few frames later: 'pillar' s8 cam1's target
+    # 5 ended 12 frames before cam0's target 7 began (IDF1 0.947 -> 0.990); 'doors' s1 cam1's
+    # 9 -> cam0's 6 after 28 frames (0.952 -> 0.961). Session 42 tried them for targets that
+    # walked out of the view: PETS (View_001 video + View_003 detections) 0.535 -> 0.526,
+    # View_003's tracks break everywhere inside its view and a 74-row View_001 target
+    # (person 15) was joined to person 14, who stood where person 15 went. Here the other
+    # camera must have shown nobody near where H put the ending target in its last 10 frames
+    # (handoff_seen_heights; checking its last frame only, person 18 was joined to person 7
+    # after a one-frame miss of View_003's), and a hand-off joins no two targets of one camera
+    # seen together even for a frame (a 14-row View_003 target already in another person's
+    # group joined person 13's); with either rule left out PETS 0.535 -> 0.484. Over the 96
+    # sweep runs (seeds 0-11), refinished: those two gains, no run worse; PETS 0.535.
+    handoff_max_gap_frames: int = param(
+        30, "hand-off: a target of one camera of a pair with H that begins this many frames or "
+        "fewer after one of the other camera ended may continue it (0 = no hand-offs)",
+        0, 100000,
+    )
+    handoff_seen_heights: float = param(
+        1.0, "...if no target of its camera was within this many heights (its own) of where "
+        "H put the other's feet in its last frame", 0.0, 100.0,
+    )
+    handoff_min_rows: int = param(
+        5, "...and both are at least this many rows long", 1, 100000,
+    )
     # A target that changed person (two people crossing at a door or a frame edge merge and the
     # wrong one keeps the label) votes for one person, then for another. Generated doors seed 1:
     # cam0 target 4 is person 1 for 89 frames, then person 5 for 100.

@@ -521,6 +521,43 @@ def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
     assert len(set(res.meta.tolist())) == 2 and not res.links
 
 
+@pytest.mark.parametrize(("gap", "vx", "handed"), [
+    (11, 1.0, True),    # hidden in cam0, lost in cam1, out in cam0 11 frames later
+    (31, 1.0, False),   # beyond handoff_max_gap_frames
+    (11, 0.0, False),   # standing: anyone may stand there by now
+])
+def test_a_person_hidden_in_one_view_and_lost_in_the_other_is_handed_off(
+        gap: int, vx: float, handed: bool) -> None:
+    """'pillar' s8: cam1 lost a person (target 5) while the pillar hid them from cam0, which
+    found them 12 frames later where their walk, carried through H, led (IDF1 0.947 ->
+    0.990). Here cam1's target 1 walks until frame 39 and cam0 sees nobody where H puts it;
+    cam0's target 3 begins ``gap`` frames later where the walk leads."""
+    rows = _cat(_walker("cam1", 1, 1, range(40), 140.0, vx),
+                _walker("cam0", 3, 3, range(39 + gap, 100 + gap), 100.0, vx))
+    sizes = {"cam0": (320, 240), "cam1": (320, 240)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    assert (len(set(res.meta.tolist())) == 1) == handed
+    assert [link.source for link in res.links] == (["handoff"] if handed else [])
+    off = resolve_labels(rows, [("cam0", "cam1", SHIFT)], replace(CFG, handoff_max_gap_frames=0),
+                         sizes=sizes)
+    assert len(set(off.meta.tolist())) == 2
+
+
+def test_no_hand_off_where_the_other_camera_saw_someone() -> None:
+    """On PETS (View_003 detections) people walked on where the other camera saw them, or
+    someone: a person leaving one view is handed off only if the other camera showed nobody
+    where H put them in their last 10 frames. cam0's target 2 stands on that spot for two
+    frames (too few votes to link it to cam1's target 1) and goes on as target 3 (a stitch)."""
+    rows = _cat(_walker("cam1", 1, 1, range(40), 140.0, 1.0),
+                _walker("cam0", 2, 2, range(33, 35), 139.0, 0.0),
+                _walker("cam0", 3, 3, range(50, 111), 100.0, 1.0))
+    sizes = {"cam0": (320, 240), "cam1": (320, 240)}
+    for seen_heights, metas in ((CFG.handoff_seen_heights, 2), (0.0, 1)):
+        res = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
+                             replace(CFG, handoff_seen_heights=seen_heights), sizes=sizes)
+        assert len(set(res.meta.tolist())) == metas
+
+
 def test_two_people_seen_apart_are_never_joined_through_others() -> None:
     """crowd seed 0: cam0's target 12 lived 10 frames where cam1's target 1 was, and 9 votes
     linked them; cam0's target 17 then took 12's meta (the same person, rightly) but stood 2

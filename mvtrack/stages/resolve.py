@@ -40,8 +40,14 @@ the results give each target one meta for its whole life:
   hidden behind a pillar while no other camera saw both parts), unless the one that ended
   walked out of the view: last seen on the left, right or bottom border, not walking back
   into the view;
+- **hand-offs**: a target of one camera that ended, walking, while the other camera of a
+  pair with H showed nobody where H put it (hidden there, or just out of view), and a target
+  of the other camera that began at most ``handoff_max_gap_frames`` later where its walk,
+  carried through H, leads: one person who left one view, or was lost in it, while behind a
+  pillar or a booth in the other and came out there. A hand-off joins no two targets of one
+  camera present together even in one frame;
 - links join strongest first (cross-camera votes, then same-camera continuity, then
-  stitches). A join that
+  stitches, then hand-offs). A join that
   would put two targets of one camera present together in more than ``max_shared_frames``
   frames into one meta is refused: those are two people, not two fragments of one; so is one
   joining two targets of a pair with H that were beyond each other's vote gate in more than
@@ -59,7 +65,7 @@ the results give each target one meta for its whole life:
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Collection, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from itertools import combinations, pairwise
 from typing import Any, Protocol
@@ -187,7 +193,7 @@ def camera_frames(rows: Rows, names: tuple[str, str], sizes: Mapping[str, tuple[
     none = np.zeros(0, np.int64)
     for frame in range(min(chunks, default=0), max(chunks, default=-1) + 1):
         chunk = chunks.get(frame, none)
-        a, b = (chunk[rows.camera[chunk] == name] for name in names)
+        a, b = (_rows_of(chunk, name, rows) for name in names)
         yield frame, _targets(rows, a, sizes[names[0]]), _targets(rows, b, sizes[names[1]])
 
 
@@ -571,19 +577,94 @@ def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
     """(rows of the shorter, earlier node, later node): one camera's target that ended and
     one that began where the first would be after a while (:func:`_continues`), each the
     other's only such match: a person hidden behind something for a while."""
-    count = Counter(nodes)
+    candidates = ((_continues(ex, ey, cfg), x, y) for x, ex in ends.items()
+                  for y, ey in ends.items() if y[0] == x[0])
+    return _mutual_best(candidates, Counter(nodes))
+
+
+def _mutual_best(candidates: Iterable[tuple[float | None, Node, Node]], count: Counter[Node]
+                 ) -> list[tuple[int, Node, Node]]:
+    """(rows of the shorter, earlier node, later node) of the candidate (cost, earlier, later)
+    links (cost None: none) that are each end's cheapest; ``count``: rows per node."""
     best: dict[Node, tuple[float, Node]] = {}
     back: dict[Node, tuple[float, Node]] = {}
-    for x, ex in ends.items():
-        for y, ey in ends.items():
-            cost = None if y[0] != x[0] else _continues(ex, ey, cfg)
-            if cost is None:
-                continue
-            if cost < best.get(x, (np.inf,))[0]:
-                best[x] = (cost, y)
-            if cost < back.get(y, (np.inf,))[0]:
-                back[y] = (cost, x)
+    for cost, x, y in candidates:
+        if cost is None:
+            continue
+        if cost < best.get(x, (np.inf,))[0]:
+            best[x] = (cost, y)
+        if cost < back.get(y, (np.inf,))[0]:
+            back[y] = (cost, x)
     return [(min(count[x], count[y]), x, y) for x, (_, y) in best.items() if back[y][1] == x]
+
+
+def _handoff_links(rows: Rows, nodes: list[Node], ends: dict[Node, _Ends],
+                   pairs: Mapping[tuple[str, str], np.ndarray], cfg: ResolveConfig
+                   ) -> list[tuple[int, Node, Node]]:
+    """(rows of the shorter, earlier node, later node) for each pair with H (``pairs``: A, B
+    -> H_b_from_a), both ways: a target of one camera that ended while walking (its last 30
+    rows at least ``stitch_walking_min_speed_heights``) unseen by the other camera (in none
+    of its last 10 frames had that camera a target within ``handoff_seen_heights`` of where
+    H put its feet: hidden there, or just out of its view), and a target of that camera that
+    began at most ``handoff_max_gap_frames`` later within ``stitch_gate_heights`` (its own
+    height) of where the first's walk, carried through H, leads; both at least
+    ``handoff_min_rows`` rows long, each the other's only such match. A person hidden in one
+    view who leaves (or is lost in) the other comes out there: the pillar, the booth. The
+    unseen test keeps apart someone walking on where the other camera sees them (or, with
+    detections, loses them for a frame) and a newcomer there."""
+    if cfg.handoff_max_gap_frames <= 0:
+        return []
+    at = {int(rows.frame[c[0]]): c for c in _frames(rows)}
+    of: dict[Node, list[int]] = {}
+    for i, n in enumerate(nodes):
+        of.setdefault(n, []).append(i)
+
+    def candidates(src: str, dst: str, M: np.ndarray) -> Iterator[tuple[float, Node, Node]]:
+        starts = [(y, ey) for y, ey in ends.items()
+                  if y[0] == dst and len(of[y]) >= cfg.handoff_min_rows]
+        for x, ex in ends.items():
+            if (x[0] != src or len(of[x]) < cfg.handoff_min_rows or np.linalg.norm(
+                    ex.ends[-1][1]) < cfg.stitch_walking_min_speed_heights * ex.height
+                    or not _unseen(rows, at, np.array(of[x]), dst, M,
+                                   cfg.handoff_seen_heights)):
+                continue
+            for y, ey in starts:
+                gap = ey.first - ex.last
+                lead = _on_ground(M, ex.ends[0][0] + gap * ex.ends[0][1])
+                if 0 < gap <= cfg.handoff_max_gap_frames and lead is not None:
+                    d = float(np.linalg.norm(ey.starts[0][0] - lead)) / ey.height
+                    if d <= cfg.stitch_gate_heights:
+                        yield d, x, y
+
+    return _mutual_best((c for (a, b), H in pairs.items()
+                         for src, dst, M in ((a, b, H), (b, a, np.linalg.inv(H)))
+                         for c in candidates(src, dst, M)), Counter(nodes))
+
+
+def _unseen(rows: Rows, at: Mapping[int, np.ndarray], mine: np.ndarray, camera: str,
+            H: np.ndarray, gate: float) -> bool:
+    """Whether ``camera`` did not see a target (its rows ``mine``; H: from its camera to
+    that one; ``at``: frame -> row indices) when it ended: in none of its last 10 frames had
+    that camera a target within ``gate`` heights (that target's) of where H put its feet."""
+    for r in mine[np.argsort(rows.frame[mine], kind="stable")][-_END_WALK_ROWS[0]:]:
+        there = _rows_of(at[int(rows.frame[r])], camera, rows)
+        feet = _on_ground(H, rows.feet[r])
+        if feet is not None and (np.linalg.norm(rows.feet[there] - feet, axis=1)
+                                 <= gate * rows.height[there]).any():
+            return False
+    return True
+
+
+def _on_ground(H: np.ndarray, xy: np.ndarray) -> np.ndarray | None:
+    """(2,) H applied to one point, or None where H maps it beyond the horizon (w <= 0: a
+    walk carried past the ground plane's horizon lands on the wrong side of the image)."""
+    q = H @ np.r_[xy, 1.0]
+    return None if q[2] <= 0 else q[:2] / q[2]
+
+
+def _rows_of(chunk: np.ndarray, camera: str, rows: Rows) -> np.ndarray:
+    """The rows of ``chunk`` (row indices) that are ``camera``'s."""
+    return chunk[rows.camera[chunk] == camera]
 
 
 def _online_links(rows: Rows, nodes: list[Node], pairs_without_h: set[frozenset[str]],
@@ -642,14 +723,17 @@ class _Groups:
             n = self.parent[n]
         return n
 
-    def join(self, x: Node, y: Node) -> bool:
+    def join(self, x: Node, y: Node, max_shared: int | None = None) -> bool:
+        """Join the groups of x and y unless that joins two people (``max_shared``: instead of
+        the groups' own)."""
         rx, ry = self.find(x), self.find(y)
         if rx == ry:
             return True
+        most = self.max_shared if max_shared is None else max_shared
         for p in self.members[rx]:
             for q in self.members[ry]:
                 one_view = p[0] == q[0] or frozenset((p[0], q[0])) in self.apart_cameras
-                if one_view and len(self.frames[p] & self.frames[q]) > self.max_shared:
+                if one_view and len(self.frames[p] & self.frames[q]) > most:
                     return False
                 if (p, q) in self.apart or (q, p) in self.apart:
                     return False
@@ -717,11 +801,17 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
     scored += [(1, v, x, y, "segment") for v, x, y in _segment_links(nodes, apart)]
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
+    with_h = {(a, b): np.asarray(H, np.float64) for a, b, H in pairs if H is not None and use_h}
+    scored += [(3, v, x, y, "handoff")
+               for v, x, y in _handoff_links(rows, nodes, ends, with_h, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
                      cameras_apart(rows.camera.tolist(), overlaps))
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
-        links.append(ResolvedLink(x, y, v, source, groups.join(x, y)))
+        # a hand-off joins no two targets of one camera seen together even for a frame: the
+        # person was hidden in one view and gone from the other
+        links.append(ResolvedLink(x, y, v, source,
+                                  groups.join(x, y, 0 if source == "handoff" else None)))
     meta = _name_groups(rows, nodes, groups)
     mapping: dict[tuple[int, int], Counter[int]] = {}
     for f, m, r in zip(rows.frame.tolist(), rows.meta.tolist(), meta.tolist(), strict=True):
