@@ -1262,7 +1262,7 @@ class ResolveConfig(_Checked):
     )
     handoff_seen_heights: float = param(
         1.0, "...if no target of its camera was within this many heights (its own) of where "
-        "H put the other's feet in its last frame", 0.0, 100.0,
+        "H put the other's feet in any of that one's last 10 frames", 0.0, 100.0,
     )
     handoff_min_rows: int = param(
         5, "...and both are at least this many rows long", 1, 100000,
