@@ -539,11 +539,17 @@ def _end_of(rows: Rows, idx: np.ndarray, outward: np.ndarray) -> _Ends:
                  bool(side.any() and ends[0][1] @ side >= 0))
 
 
-def _ends(rows: Rows, nodes: list[Node], outward: np.ndarray) -> dict[Node, _Ends]:
+def _rows_by_node(nodes: list[Node]) -> dict[Node, np.ndarray]:
+    """Each node's row indices, in row order."""
     at: dict[Node, list[int]] = {}
     for i, n in enumerate(nodes):
         at.setdefault(n, []).append(i)
-    return {n: _end_of(rows, np.array(idx), outward) for n, idx in at.items()}
+    return {n: np.array(idx) for n, idx in at.items()}
+
+
+def _ends(rows: Rows, by_node: Mapping[Node, np.ndarray], outward: np.ndarray
+          ) -> dict[Node, _Ends]:
+    return {n: _end_of(rows, idx, outward) for n, idx in by_node.items()}
 
 
 def _continues(ex: _Ends, ey: _Ends, cfg: ResolveConfig, gap_factor: int = 1) -> float | None:
@@ -582,8 +588,8 @@ def _stitch_links(nodes: list[Node], ends: dict[Node, _Ends], cfg: ResolveConfig
     return _mutual_best(candidates, Counter(nodes))
 
 
-def _mutual_best(candidates: Iterable[tuple[float | None, Node, Node]], count: Counter[Node]
-                 ) -> list[tuple[int, Node, Node]]:
+def _mutual_best(candidates: Iterable[tuple[float | None, Node, Node]],
+                 count: Mapping[Node, int]) -> list[tuple[int, Node, Node]]:
     """(rows of the shorter, earlier node, later node) of the candidate (cost, earlier, later)
     links (cost None: none) that are each end's cheapest; ``count``: rows per node."""
     best: dict[Node, tuple[float, Node]] = {}
@@ -598,11 +604,12 @@ def _mutual_best(candidates: Iterable[tuple[float | None, Node, Node]], count: C
     return [(min(count[x], count[y]), x, y) for x, (_, y) in best.items() if back[y][1] == x]
 
 
-def _handoff_links(rows: Rows, nodes: list[Node], ends: dict[Node, _Ends],
-                   pairs: Mapping[tuple[str, str], np.ndarray], cfg: ResolveConfig
-                   ) -> list[tuple[int, Node, Node]]:
+def _handoff_links(rows: Rows, frames: list[np.ndarray], by_node: Mapping[Node, np.ndarray],
+                   ends: dict[Node, _Ends], pairs: Mapping[tuple[str, str], np.ndarray],
+                   cfg: ResolveConfig) -> list[tuple[int, Node, Node]]:
     """(rows of the shorter, earlier node, later node) for each pair with H (``pairs``: A, B
-    -> H_b_from_a), both ways: a target of one camera that ended while walking (its last 30
+    -> H_b_from_a; ``frames``, ``by_node``: each frame's and each node's row indices), both
+    ways: a target of one camera that ended while walking (its last 30
     rows at least ``stitch_walking_min_speed_heights``) unseen by the other camera (in none
     of its last 10 frames had that camera a target within ``handoff_seen_heights`` of where
     H put its feet: hidden there, or just out of its view), and a target of that camera that
@@ -614,18 +621,16 @@ def _handoff_links(rows: Rows, nodes: list[Node], ends: dict[Node, _Ends],
     detections, loses them for a frame) and a newcomer there."""
     if cfg.handoff_max_gap_frames <= 0:
         return []
-    at = {int(rows.frame[c[0]]): c for c in _frames(rows)}
-    of: dict[Node, list[int]] = {}
-    for i, n in enumerate(nodes):
-        of.setdefault(n, []).append(i)
+    at = {int(rows.frame[c[0]]): c for c in frames}
+    count = {n: len(idx) for n, idx in by_node.items()}
 
     def candidates(src: str, dst: str, M: np.ndarray) -> Iterator[tuple[float, Node, Node]]:
         starts = [(y, ey) for y, ey in ends.items()
-                  if y[0] == dst and len(of[y]) >= cfg.handoff_min_rows]
+                  if y[0] == dst and count[y] >= cfg.handoff_min_rows]
         for x, ex in ends.items():
-            if (x[0] != src or len(of[x]) < cfg.handoff_min_rows or np.linalg.norm(
+            if (x[0] != src or count[x] < cfg.handoff_min_rows or np.linalg.norm(
                     ex.ends[-1][1]) < cfg.stitch_walking_min_speed_heights * ex.height
-                    or not _unseen(rows, at, np.array(of[x]), dst, M,
+                    or not _unseen(rows, at, by_node[x], dst, M,
                                    cfg.handoff_seen_heights)):
                 continue
             for y, ey in starts:
@@ -638,7 +643,7 @@ def _handoff_links(rows: Rows, nodes: list[Node], ends: dict[Node, _Ends],
 
     return _mutual_best((c for (a, b), H in pairs.items()
                          for src, dst, M in ((a, b, H), (b, a, np.linalg.inv(H)))
-                         for c in candidates(src, dst, M)), Counter(nodes))
+                         for c in candidates(src, dst, M)), count)
 
 
 def _unseen(rows: Rows, at: Mapping[int, np.ndarray], mine: np.ndarray, camera: str,
@@ -795,7 +800,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     for names, votes in assigned.items():
         scored += [(0, v, x, y, "homography") for v, x, y in _homography_votes(
             rows, nodes, frames, names, votes + fragment_votes[names], cfg)]
-    ends = _ends(rows, nodes, outward)
+    by_node = _rows_by_node(nodes)
+    ends = _ends(rows, by_node, outward)
     cross, same = _online_links(rows, nodes, without_h, cfg, ends)
     scored += [(0, v, x, y, "online") for (x, y), v in cross.items() if v >= cfg.min_votes]
     scored += [(1, v, x, y, "online") for (x, y), v in same.items()]
@@ -803,7 +809,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     scored += [(2, v, x, y, "stitch") for v, x, y in _stitch_links(nodes, ends, cfg)]
     with_h = {(a, b): np.asarray(H, np.float64) for a, b, H in pairs if H is not None and use_h}
     scored += [(3, v, x, y, "handoff")
-               for v, x, y in _handoff_links(rows, nodes, ends, with_h, cfg)]
+               for v, x, y in _handoff_links(rows, frames, by_node, ends, with_h, cfg)]
     groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
                      cameras_apart(rows.camera.tolist(), overlaps))
     links = []
