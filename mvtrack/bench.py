@@ -19,7 +19,7 @@ import numpy as np
 from mvtrack.params import Params
 from mvtrack.stages.background import background_step, train_background, training_offsets
 from mvtrack.stages.blobtrack import track_masks, tracker_init
-from mvtrack.stages.feet import target_feet_records
+from mvtrack.stages.feet import HeightMemory, complete_step, target_feet_records
 
 __all__ = ["FrontEndBench", "bench_frontend", "mog2_baseline", "run_frontend"]
 
@@ -45,13 +45,15 @@ def run_frontend(frames: Sequence[np.ndarray], modality: str, params: Params,
                  train: Sequence[np.ndarray], full: bool = True) -> int:
     """mvtrack's front end: background subtraction, and with ``full`` the tracker and feet."""
     bg = train_background(train, modality, params.background)
-    tracker = tracker_init()
+    tracker, heights = tracker_init(), HeightMemory()
     targets = 0
     for frame in frames:
         bg, res = background_step(bg, frame, params.background)
         if full:
             tracker, tracks = track_masks(tracker, res.mvo_labels, frame, params.tracker, bg.sizes)
-            targets += len(target_feet_records(tracks, params.feet))
+            heights, feet = complete_step(heights, target_feet_records(tracks, params.feet),
+                                          tracks, params.feet)
+            targets += len(feet)
         else:
             targets += len(res.blobs)
     return targets

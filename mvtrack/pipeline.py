@@ -45,7 +45,13 @@ from mvtrack.stages.blobtrack import (
     tracker_init,
 )
 from mvtrack.stages.cues import Cue, CueInputs, camera_cues
-from mvtrack.stages.feet import Feet, smooth_feet, target_feet_records
+from mvtrack.stages.feet import (
+    Feet,
+    HeightMemory,
+    complete_step,
+    smooth_feet,
+    target_feet_records,
+)
 from mvtrack.stages.fov import border_line
 from mvtrack.stages.homography import HomographyEstimate
 from mvtrack.stages.markers import comotion_of_run
@@ -134,6 +140,7 @@ class FrameResult:
 class _CameraState:
     background: BackgroundState | None
     tracker: TrackerState
+    heights: HeightMemory = field(default_factory=HeightMemory)
 
 
 def _edges(matches: Mapping[tuple[str, str], MatchResult]) -> list[Edge]:
@@ -293,8 +300,9 @@ class Pipeline:
                 tracker, tracks = track_boxes(state.tracker, d.boxes_xywh, d.tracks, p.tracker,
                                               feet_xy=d.feet)
         with timer("feet"):
-            feet = target_feet_records(tracks, p.feet)
-        self._states[cam.name] = _CameraState(bg_state, tracker)
+            heights, feet = complete_step(state.heights, target_feet_records(tracks, p.feet),
+                                          tracks, p.feet)
+        self._states[cam.name] = _CameraState(bg_state, tracker, heights)
         targets = CameraTargets(
             labels=tracks.labels,
             feet=np.array([f.point for f in feet]).reshape(-1, 2),

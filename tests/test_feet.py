@@ -15,7 +15,17 @@ from scipy import ndimage
 
 from mvtrack.params import FeetConfig, TrackerConfig
 from mvtrack.stages.blobtrack import track_boxes, track_masks, tracker_init
-from mvtrack.stages.feet import feet_bbox, feet_from_box, feet_pca, smooth_feet, target_feet
+from mvtrack.stages.feet import (
+    Feet,
+    HeightMemory,
+    complete_step,
+    feet_bbox,
+    feet_from_box,
+    feet_pca,
+    smooth_feet,
+    target_feet,
+    target_feet_records,
+)
 
 CFG = FeetConfig()
 
@@ -393,3 +403,75 @@ def test_smoothing_is_independent_of_row_order() -> None:
     out = smooth_feet(frames, track, feet, np.full(60, 40.0), 6, 1.0)
     shuffled = smooth_feet(frames[perm], track[perm], feet[perm], np.full(60, 40.0), 6, 1.0)
     assert np.allclose(shuffled, out[perm])
+
+
+# --------------------------------------------------------------------------- completion
+
+
+def _behind_booth(frames: int, booth_row: int | None, booth_from: int, shape=(120, 100),
+                  top_drop_at: int | None = None, step_px: int = 15) -> list[np.ndarray]:
+    """MVO label images of a person (12 x 40 px rectangle, top at row 30) walking right at 1
+    px a frame; from frame ``booth_from`` a booth hides ``step_px`` more of their lower rows a
+    frame down to row ``booth_row`` (None: nothing hidden; the legs go at once when the booth's
+    edge passes the knees, as on the generated 'doors' clips). ``top_drop_at``: from that frame
+    the top 15 rows are hidden instead (the head lost, not the legs)."""
+    out = []
+    for f in range(frames):
+        mvo = np.zeros(shape, np.int32)
+        top, bottom = 30, 69
+        if booth_row is not None and f >= booth_from:
+            bottom = max(booth_row - 1, bottom - step_px * (f - booth_from + 1))
+        if top_drop_at is not None and f >= top_drop_at:
+            top = 45
+        mvo[top : bottom + 1, 20 + f : 32 + f] = 1
+        out.append(mvo)
+    return out
+
+
+def _completed(mvos: list[np.ndarray], cfg: FeetConfig = CFG) -> list[Feet]:
+    tracker, memory, feet = tracker_init(), HeightMemory(), []
+    for mvo in mvos:
+        tracker, res = track_masks(tracker, mvo, None, TrackerConfig())
+        memory, records = complete_step(memory, target_feet_records(res, cfg), res, cfg)
+        feet.append(records[0])
+    return feet
+
+
+def test_a_target_walking_behind_a_booth_keeps_its_feet() -> None:
+    feet = _completed(_behind_booth(20, booth_row=55, booth_from=8))
+    assert all(f.completed_px == 0.0 for f in feet[:8])
+    for f in feet[8:]:  # 25 of 40 rows seen: the feet stay on the true bottom edge, 69.5
+        assert f.completed_px == pytest.approx(15.0, abs=0.6)
+        assert f.point[1] == pytest.approx(69.5, abs=0.6)
+        assert f.height_px == pytest.approx(40.0, abs=0.6)
+        assert f.box_corners_xy[2, 1] == pytest.approx(69.5, abs=0.6)
+    plain = target_feet_records(track_masks(tracker_init(), _behind_booth(20, 55, 8)[12], None,
+                                            TrackerConfig())[1], CFG)[0]
+    assert plain.point[1] == pytest.approx(54.5, abs=0.6)  # without: on the booth's edge
+
+
+def test_completion_is_not_made_where_the_evidence_is_not_there() -> None:
+    # 10 % lost: under complete_min_loss_frac
+    assert all(f.completed_px == 0.0 for f in _completed(_behind_booth(12, 66, 6)))
+    # the head went, not the legs: the top moved down 15 px at once
+    assert all(f.completed_px == 0.0
+               for f in _completed(_behind_booth(12, None, 0, top_drop_at=6)))
+    # the legs leave over the frame's bottom border (a 55-row frame: the person ends at it)
+    assert all(f.completed_px == 0.0
+               for f in _completed(_behind_booth(12, 55, 6, (55, 100))))
+    # too long since the target was seen whole
+    late = _completed(_behind_booth(20, 55, 6), FeetConfig(complete_max_frames=5))
+    assert [f.completed_px > 0 for f in late[6:]] == [True] * 5 + [False] * 9
+    # turned off
+    off = _completed(_behind_booth(20, 55, 6), FeetConfig(complete_short=False))
+    assert all(f.completed_px == 0.0 for f in off)
+
+
+def test_someone_who_shared_the_blob_is_not_taken_for_legs() -> None:
+    for tall in ([5], range(5, 20)):  # one frame, or long enough to fill the memory
+        mvos = _behind_booth(26, None, 0)
+        for f in tall:  # a person behind, standing below the feet in the image
+            mvos[f][70:100, 25 + f : 31 + f] = 1
+        feet = _completed(mvos)
+        assert feet[5].height_px > 55  # measured tall then
+        assert all(f.completed_px == 0.0 for f in feet)

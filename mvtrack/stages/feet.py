@@ -19,7 +19,8 @@ bottom of a mask whose lowest row is 40 is y = 40.5.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
 
 import cv2
 import numpy as np
@@ -29,6 +30,8 @@ from mvtrack.stages.blobtrack import TrackResult
 
 __all__ = [
     "Feet",
+    "HeightMemory",
+    "complete_step",
     "feet_bbox",
     "feet_from_box",
     "feet_pca",
@@ -53,6 +56,7 @@ class Feet:
     outline_xy:      (2, 2) float64, the two outline points closest to the bottom-left and
                      bottom-right corners (pca); the box's bottom corners for the box methods
     method:          "pca", "bbox" or "box" (detections)
+    completed_px:    how far :func:`complete_step` moved the feet down along ``-up`` (0: not)
     """
 
     point: np.ndarray
@@ -61,6 +65,7 @@ class Feet:
     box_corners_xy: np.ndarray
     outline_xy: np.ndarray
     method: str
+    completed_px: float = 0.0
 
 
 def _mask_points(mask: np.ndarray, offset_xy: tuple[float, float]) -> np.ndarray:
@@ -212,6 +217,90 @@ def target_feet_records(result: TrackResult, cfg: FeetConfig) -> tuple[Feet, ...
         else:
             records.append(feet_bbox(crop, offset))
     return tuple(records)
+
+
+_WHOLE_FRAMES = 5  # the whole height is the median of the last frames seen whole
+
+
+@dataclass(frozen=True)
+class HeightMemory:
+    """Per live mask target: its heights the last frames it was seen whole, and since when.
+
+    whole_px:  label -> heights px (:attr:`Feet.height_px`) of its last (at most 5) frames
+               seen whole, oldest first
+    since:     label -> frames since the last of them
+    top:       label -> the top of its box last frame (px edge)
+    """
+
+    whole_px: Mapping[int, tuple[float, ...]] = field(default_factory=dict)
+    since: Mapping[int, int] = field(default_factory=dict)
+    top: Mapping[int, float] = field(default_factory=dict)
+
+
+def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: TrackResult,
+                  cfg: FeetConfig) -> tuple[HeightMemory, tuple[Feet, ...]]:
+    """Feet of mask targets that lost their lower body, put back where the body ends [beyond].
+
+    Walking behind the booth or a person, or on trousers that match the ground, a target ends
+    at the hips and its feet land there, up to a body height above the truth; its walk then
+    leads nowhere (the same-camera stitches and hand-offs miss it). A target's whole height is
+    the median of its heights in its last 5 frames seen whole (alone, touching no border, not
+    just split off or cut from a group, not completed): one frame with a shadow or a passer-by
+    in its blob does not set it. A target shorter than that by more than
+    ``complete_min_loss_frac`` of it, touching no border and in no merge, split or group, gets
+    that height back: its feet move down along its down axis (image down when that leans more
+    than 45 degrees) to that height below its top, and its box with them. Only the bottom may
+    have gone: a target whose top moved more than ``complete_top_step_frac`` of its whole
+    height since the last frame (its head went, or it is someone else), or that has not been
+    seen whole for ``complete_max_frames``, has its heights forgotten. Nor is a frame whole
+    where the target is taller than its whole height by more than ``complete_min_loss_frac``
+    of it: someone joined its blob, and would be taken for its legs once they left ('crowd'
+    s9 cam1: a person of 60 px, then 100 px with one behind for 30 frames). Returns the new
+    memory and the records (``result``'s order).
+    """
+    if result.label_image is None or not cfg.complete_short:
+        return memory, records
+    rows, cols = result.label_image.shape
+    unsure = {label for _, labels in result.merges + result.groups for label in labels}
+    unsure |= {label for parent, children in result.splits for label in (parent, *children)}
+    whole: dict[int, tuple[float, ...]] = {}
+    since: dict[int, int] = {}
+    top: dict[int, float] = {}
+    out = []
+    for label, feet, box in zip(result.labels.tolist(), records, result.boxes_xywh, strict=True):
+        x, y, w, h = (float(v) for v in box)
+        top[label] = y
+        if label in unsure:  # forgotten: what it was before may be two people or half of one
+            out.append(feet)
+            continue
+        heights, age = memory.whole_px.get(label, ()), memory.since.get(label, 0)
+        ref = float(np.median(heights)) if heights else 0.0
+        if (abs(y - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
+                or age >= cfg.complete_max_frames):
+            heights, age, ref = (), 0, 0.0  # its head is not where it was, or that was long ago
+        cut = (y < _HALF_PX or y + h > rows - _HALF_PX - 1e-6 or x < _HALF_PX
+               or x + w > cols - _HALF_PX - 1e-6)
+        loss = cfg.complete_min_loss_frac
+        if heights and not cut and feet.height_px < (1.0 - loss) * ref:
+            out.append(_lengthen(feet, ref - feet.height_px))
+        else:
+            out.append(feet)
+            if not cut and not (heights and feet.height_px > (1.0 + loss) * ref):
+                heights, age = (*heights, feet.height_px)[-_WHOLE_FRAMES:], -1
+        if heights:
+            whole[label], since[label] = heights, age + 1
+    return HeightMemory(whole, since, top), tuple(out)
+
+
+def _lengthen(feet: Feet, step_px: float) -> Feet:
+    """``feet`` moved ``step_px`` further down its down axis, its height and box with it."""
+    down = -feet.up if -feet.up[1] >= np.sqrt(0.5) else -_IMAGE_UP
+    shift = step_px * down
+    corners = feet.box_corners_xy.copy()
+    corners[2:] += shift  # bottom-right, bottom-left
+    return replace(feet, point=feet.point + shift, height_px=feet.height_px + step_px,
+                   box_corners_xy=corners, outline_xy=feet.outline_xy + shift,
+                   completed_px=step_px)
 
 
 def target_feet(result: TrackResult, cfg: FeetConfig) -> tuple[np.ndarray, np.ndarray]:

@@ -354,15 +354,18 @@ class RerunSink:
 
     def _log_camera(self, name: str, cam: CameraResult, metas: np.ndarray,
                     events: Mapping[int, str]) -> None:
-        """Blobs, target boxes (labelled with target, meta and this frame's FOV event, if
-        any: Rerun writes a label under its box, where an event marker's would collide) and
-        feet."""
+        """Blobs, target boxes (labelled with target, meta, this frame's FOV event, if any:
+        Rerun writes a label under its box, where an event marker's would collide, and how
+        far its feet were put below the box when it lost its lower body) and feet."""
         rec, opts = self.rec, self.options
         if cam.background is not None and opts.blobs:
             self._log_blobs(name, cam)
         targets = cam.targets
+        completed = [f.completed_px for f in cam.feet] if len(cam.feet) == len(targets) else []
         text = [f"t{t} m{m}" + (f" · {events[t]}" if t in events else "")
-                for t, m in zip(targets.labels.tolist(), metas.tolist(), strict=True)]
+                + (f" · feet +{completed[i]:.0f} px" if completed and completed[i] > 0 else "")
+                for i, (t, m) in enumerate(zip(targets.labels.tolist(), metas.tolist(),
+                                               strict=True))]
         boxes = targets.boxes_xywh.copy()
         boxes[:, :2] += 0.5
         rec.log(paths.camera_layer(name, "targets"), rr.Boxes2D(
