@@ -27,6 +27,7 @@ import numpy as np
 
 from mvtrack.params import FeetConfig
 from mvtrack.stages.blobtrack import TrackResult
+from mvtrack.stages.targets import touching_sides
 
 __all__ = [
     "Feet",
@@ -261,34 +262,35 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
     if result.label_image is None or not cfg.complete_short:
         return memory, records
     rows, cols = result.label_image.shape
+    cut = np.any(touching_sides(result.boxes_xywh, (cols, rows), 0.0), axis=1).tolist()
     unsure = {label for _, labels in result.merges + result.groups for label in labels}
     unsure |= {label for parent, children in result.splits for label in (parent, *children)}
+    loss = cfg.complete_min_loss_frac
     whole: dict[int, tuple[float, ...]] = {}
     since: dict[int, int] = {}
-    top: dict[int, float] = {}
+    top = {label: float(y) for label, y in zip(result.labels.tolist(), result.boxes_xywh[:, 1],
+                                               strict=True)}
     out = []
-    for label, feet, box in zip(result.labels.tolist(), records, result.boxes_xywh, strict=True):
-        x, y, w, h = (float(v) for v in box)
-        top[label] = y
+    for i, (label, feet) in enumerate(zip(result.labels.tolist(), records, strict=True)):
         if label in unsure:  # forgotten: what it was before may be two people or half of one
             out.append(feet)
             continue
         heights, age = memory.whole_px.get(label, ()), memory.since.get(label, 0)
         ref = float(np.median(heights)) if heights else 0.0
-        if (abs(y - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
+        if (abs(top[label] - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
                 or age >= cfg.complete_max_frames):
-            heights, age, ref = (), 0, 0.0  # its head is not where it was, or that was long ago
-        cut = (y < _HALF_PX or y + h > rows - _HALF_PX - 1e-6 or x < _HALF_PX
-               or x + w > cols - _HALF_PX - 1e-6)
-        loss = cfg.complete_min_loss_frac
-        if heights and not cut and feet.height_px < (1.0 - loss) * ref:
+            heights, ref = (), 0.0  # its head is not where it was, or that was long ago
+        if heights and not cut[i] and feet.height_px < (1.0 - loss) * ref:
             out.append(_lengthen(feet, ref - feet.height_px))
+            age += 1
+        elif not cut[i] and not (heights and feet.height_px > (1.0 + loss) * ref):
+            out.append(feet)
+            heights, age = (*heights, feet.height_px)[-_WHOLE_FRAMES:], 0
         else:
             out.append(feet)
-            if not cut and not (heights and feet.height_px > (1.0 + loss) * ref):
-                heights, age = (*heights, feet.height_px)[-_WHOLE_FRAMES:], -1
+            age += 1
         if heights:
-            whole[label], since[label] = heights, age + 1
+            whole[label], since[label] = heights, age
     return HeightMemory(whole, since, top), tuple(out)
 
 

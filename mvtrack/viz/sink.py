@@ -361,11 +361,10 @@ class RerunSink:
         if cam.background is not None and opts.blobs:
             self._log_blobs(name, cam)
         targets = cam.targets
-        completed = [f.completed_px for f in cam.feet] if len(cam.feet) == len(targets) else []
         text = [f"t{t} m{m}" + (f" · {events[t]}" if t in events else "")
-                + (f" · feet +{completed[i]:.0f} px" if completed and completed[i] > 0 else "")
-                for i, (t, m) in enumerate(zip(targets.labels.tolist(), metas.tolist(),
-                                               strict=True))]
+                + (f" · feet +{f.completed_px:.0f} px" if f.completed_px > 0 else "")
+                for t, m, f in zip(targets.labels.tolist(), metas.tolist(), cam.feet,
+                                   strict=True)]
         boxes = targets.boxes_xywh.copy()
         boxes[:, :2] += 0.5
         rec.log(paths.camera_layer(name, "targets"), rr.Boxes2D(
