@@ -456,7 +456,7 @@ def test_completion_is_not_made_where_the_evidence_is_not_there() -> None:
     # the head went, not the legs: the top moved down 15 px at once
     assert all(f.completed_px == 0.0
                for f in _completed(_behind_booth(12, None, 0, top_drop_at=6)))
-    # the legs leave over the frame's bottom border (a 55-row frame: the person ends at it)
+    # only ever seen cut by the frame's bottom border (a 55-row frame: the person ends at it)
     assert all(f.completed_px == 0.0
                for f in _completed(_behind_booth(12, 55, 6, (55, 100))))
     # too long since the target was seen whole
@@ -475,3 +475,25 @@ def test_someone_who_shared_the_blob_is_not_taken_for_legs() -> None:
         feet = _completed(mvos)
         assert feet[5].height_px > 55  # measured tall then
         assert all(f.completed_px == 0.0 for f in feet)
+
+
+def _walking_out_below(frames: int, shape=(80, 100)) -> list[np.ndarray]:
+    """MVO label images of a person (12 x 40 px) walking down the image 2 px a frame, top at
+    row 20 + 2 f: whole for frames 0-9, then cut by the bottom border (row 79)."""
+    out = []
+    for f in range(frames):
+        mvo = np.zeros(shape, np.int32)
+        mvo[20 + 2 * f : 60 + 2 * f, 40:52] = 1
+        out.append(mvo)
+    return out
+
+
+def test_a_target_walking_out_below_keeps_its_feet_while_half_of_it_shows() -> None:
+    feet = _completed(_walking_out_below(26))
+    assert all(f.completed_px == 0.0 for f in feet[:11])  # whole, then just touching
+    for f, rec in enumerate(feet[11:21], start=11):  # 40 - 2 (f - 10) >= 20 of 40 rows show
+        assert rec.point[1] == pytest.approx(59.5 + 2 * f, abs=0.6)  # below the frame
+        assert rec.height_px == pytest.approx(40.0, abs=0.6)
+    assert all(rec.completed_px == 0.0 for rec in feet[21:])  # under half: left at the edge
+    off = _completed(_walking_out_below(26), FeetConfig(complete_min_shown_frac=1.0))
+    assert all(rec.completed_px == 0.0 for rec in off)

@@ -256,13 +256,18 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
     seen whole for ``complete_max_frames``, has its heights forgotten. Nor is a frame whole
     where the target is taller than its whole height by more than ``complete_min_loss_frac``
     of it: someone joined its blob, and would be taken for its legs once they left ('crowd'
-    s9 cam1: a person of 60 px, then 100 px with one behind for 30 frames). Returns the new
-    memory and the records (``result``'s order).
+    s9 cam1: a person of 60 px, then 100 px with one behind for 30 frames). A target that
+    touches the bottom border and no other (someone walking out towards the camera) lost its
+    lower body to the frame: it gets its whole height back, its feet below the frame, while it
+    shows at least ``complete_min_shown_frac`` of it (further out, the truth's walk and ours
+    part). Returns the new memory and the records (``result``'s order).
     """
     if result.label_image is None or not cfg.complete_short:
         return memory, records
     rows, cols = result.label_image.shape
-    cut = np.any(touching_sides(result.boxes_xywh, (cols, rows), 0.0), axis=1).tolist()
+    sides = touching_sides(result.boxes_xywh, (cols, rows), 0.0)  # left, right, top, bottom
+    cut = np.any(sides, axis=1).tolist()
+    cut_below = (sides[:, 3] & ~np.any(sides[:, :3], axis=1)).tolist()
     unsure = {label for _, labels in result.merges + result.groups for label in labels}
     unsure |= {label for parent, children in result.splits for label in (parent, *children)}
     loss = cfg.complete_min_loss_frac
@@ -280,7 +285,10 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
         if (abs(top[label] - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
                 or age >= cfg.complete_max_frames):
             heights, ref = (), 0.0  # its head is not where it was, or that was long ago
-        if heights and not cut[i] and feet.height_px < (1.0 - loss) * ref:
+        if heights and (
+            feet.height_px < (1.0 - loss) * ref if not cut[i]
+            else cut_below[i] and cfg.complete_min_shown_frac * ref <= feet.height_px < ref
+        ):
             out.append(_lengthen(feet, ref - feet.height_px))
             age += 1
         elif not cut[i] and not (heights and feet.height_px > (1.0 + loss) * ref):
