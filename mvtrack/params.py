@@ -135,6 +135,24 @@ class BackgroundConfig(_Checked):
         0.2, "size samples must span this fraction of the frame's rows (5-95 %)", 0.0, 1.0
     )
     size_refit_frames: int = param(25, "refit the size line this often", 1, 1000000)
+    # [beyond] Until a camera has size_min_samples samples of its own (25-50 frames), T_area
+    # is the frame's, and far people fall apart under it: a third of all misses on the 24
+    # sweep clips (seeds 0-2) were in the first 50 frames (890 of 9541 truth rows there, 1695
+    # of 67239 after). A size model fitted to the training frames' MVOs holds T_area (only)
+    # until then (train_background's prior_sizes). `mvtrack sweep` against the same code
+    # without: seeds 0-2 IDF1 0.9730 -> 0.9741, worst-camera recall 0.9619 -> 0.9647,
+    # precision 0.9725 -> 0.9727, misses in the first 50 frames 890 -> 681 (only 'crowd' and
+    # 'three' change: their people are small); seeds 3-11 0.9646 -> 0.9654, 0.9576 -> 0.9590,
+    # 0.9656 both, consistency 0.9880 -> 0.9889 ('tilted' s11 0.888 -> 0.923; 'crowd' s7
+    # 0.846 -> 0.822, s8 0.925 -> 0.909). That model used for everything from frame 0 (leg
+    # regrowth, fragments, groups too): recall 0.9672 / 0.9634, but the whole-run labels and
+    # H of some clips far worse ('pillar' s8 0.993 -> 0.863, H p90 5.9 -> 29.3 px; a person
+    # entering over the top border grown legs into its cast shadow). Training steps through
+    # its frames once more: a 600-frame 2-camera clip 18.4 -> 19.9 s.
+    train_sizes: bool = param(
+        True, "learn a size model from the training frames too; it holds T_area until the "
+        "run's own exists",
+    )
     # People seen only far away stay in a band of rows too narrow for a slope ('three' cam2,
     # 240x180: 20 px tall people on rows 48-82 for the first 150 frames, under T_area 100,
     # every one missed until the line came). Their median height holds within one such height

@@ -838,6 +838,42 @@ def test_people_in_a_band_of_rows_have_their_median_height_there_only() -> None:
     assert kept.line == (0.25, 5.0) and len(kept.samples) == 100
 
 
+def _small_walkers(ground: np.ndarray, rng: np.random.Generator, t: int) -> np.ndarray:
+    """``ground`` with four walkers whose height grows with their feet row (h = 0.2 row + 4:
+    12-24 px on rows 40-100, h/4 wide, under T_area 100 but the nearest), crossing at 2 px a
+    frame, each starting at its own column."""
+    frame = ground
+    for k, feet in enumerate((40, 60, 80, 100)):
+        h = int(0.2 * feet + 4)
+        x = (10 + 37 * k + 2 * t) % (W - 10)
+        frame = _paste(frame, _person(rng)[:h, : max(h // 4, 3)], x, feet - h)
+    return _noisy(frame, rng)
+
+
+def test_training_frames_give_the_size_model_that_holds_t_area_until_the_run_has_one() -> None:
+    """Far people under T_area are MVOs from the first frame when the training frames taught
+    the camera how tall people are at each row; without that they wait for the run's own size
+    model (size_min_samples samples)."""
+    cfg = dataclasses.replace(CFG, train_frames=40)
+    rng = np.random.default_rng(11)
+    ground = _ground(rng)
+    training = [_small_walkers(ground, rng, 5 * t) for t in range(cfg.train_frames)]
+    state = train_background(training, "rgb", cfg)
+    prior = state.prior_sizes
+    assert prior is not None and prior.line is not None and len(state.sizes.samples) == 0
+    assert prior.height_at(np.array([60.0]))[0] == pytest.approx(16.0, abs=2.0)
+    off = train_background(training, "rgb", dataclasses.replace(cfg, train_sizes=False))
+    assert off.prior_sizes is None
+    person = _person(rng)[:16, :4]  # 64 px: h = 16 on row 60, 0.12 h^2 = 31 px < 64 < 100
+    for start, expected in ((state, 1), (off, 0)):
+        s = start
+        for t in range(3):
+            frame = _noisy(_paste(ground, person, 40 + 2 * t, 44), rng)
+            s, r = background_step(s, frame, cfg)
+            assert int(r.blobs.is_mvo.sum()) == expected, (t, expected)
+        assert s.prior_sizes is start.prior_sizes  # carried from frame to frame
+
+
 @pytest.mark.parametrize("regrow_legs", [True, False])
 @pytest.mark.parametrize("legs", ["shadow", "thin"])
 def test_lost_legs_are_grown_back(regrow_legs: bool, legs: str) -> None:

@@ -24,7 +24,9 @@ Choices beyond the thesis (each with its config field):
   ``train_spacing_frames`` apart from the start (:func:`training_offsets`), not of the first
   ``train_frames`` in a row: a walker slower than a body width per ``train_frames / 2`` frames
   covers a pixel in most of a short run and is learned as background, and its ghost trail then
-  joins the people who pass it (stacked fragments, one blob) and is never absorbed.
+  joins the people who pass it (stacked fragments, one blob) and is never absorbed. The
+  training frames also give a first size model (``train_sizes``, :func:`train_background`):
+  it holds T_area for far people until the run has learned its own.
 - **Colour needs light.** S is noise on dark pixels and hue on nearly gray ones (PETS: gray
   pavement). The S terms (of D_B and the shadow test) apply only where I and B both have
   V > ``colour_min_value``, the hue terms only where both also have S > ``hue_min_sat``;
@@ -186,6 +188,8 @@ class BackgroundState:
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
     sizes:       how tall people are at each image row, learned from this camera's MVOs
+    prior_sizes: the same learned from the training frames (:func:`train_background`), or
+                 None: it holds T_area until ``sizes`` has a model of its own
     """
 
     modality: str
@@ -198,6 +202,7 @@ class BackgroundState:
     mvo_legs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
     sizes: SizeModel = field(default_factory=SizeModel)
+    prior_sizes: SizeModel | None = None
 
     @property
     def background(self) -> np.ndarray:
@@ -422,6 +427,12 @@ def train_background(
 
     frames: BGR (H,W,3) uint8 or gray (H,W) uint8 (a gray camera may also be given BGR frames,
     which are converted). modality: "rgb" or "gray". The FIFO is filled with B.
+
+    With ``train_sizes``, the training frames are also subtracted against B, in order, and
+    the size model fitted to their MVOs is the state's ``prior_sizes`` [beyond]: until the
+    run's own size model exists (``size_min_samples`` samples, 25-50 frames in), T_area for
+    far people is then already theirs, not the frame's (generated 'three' cam2: 20 px walkers
+    fell apart into pieces under T_area 100 for the first 26 frames).
     """
     if modality not in _MODALITIES:
         raise ValueError(f"train_background: modality {modality!r} must be 'rgb' or 'gray'")
@@ -433,7 +444,13 @@ def train_background(
             raise ValueError(f"train_background: frame {i} is {f.shape}, frame 0 {used[0].shape}")
     model = _model(lower_median(used), modality, cfg)
     fifo = (model.bgr,) * _fifo_len(cfg)
-    return BackgroundState(modality=modality, fifo=fifo, model=model, recent_v=(), frame_index=0)
+    state = BackgroundState(modality=modality, fifo=fifo, model=model, recent_v=(), frame_index=0)
+    if not cfg.train_sizes or cfg.size_area_frac <= 0:
+        return state
+    warm = state
+    for frame in used:
+        warm, _ = background_step(warm, frame, cfg)
+    return replace(state, prior_sizes=_fit_sizes(warm.sizes.samples, used[0].shape[0], cfg))
 
 
 def _hsv_planes(frame: np.ndarray, modality: str) -> tuple[np.ndarray | None, ...]:
@@ -1184,7 +1201,10 @@ def background_step(
         _hold_ages(overlaps, state.mvo_ages, k),
     )
     min_area = min_area_at(candidate.shape, cfg)
-    thresholds = _area_thresholds(stats, state.sizes, min_area, cfg)
+    area_sizes = state.sizes  # or, until it has a model, the training frames'
+    if state.sizes.slope_intercept() is None and state.prior_sizes is not None:
+        area_sizes = state.prior_sizes
+    thresholds = _area_thresholds(stats, area_sizes, min_area, cfg)
     blobs, age = _blob_table(stats, evidence, cfg, min_area, thresholds, candidate.shape)
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
@@ -1224,5 +1244,6 @@ def background_step(
         mvo_legs=_readonly(np.c_[legs, reach]),
         shared=shared,
         sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
+        prior_sizes=state.prior_sizes,
     )
     return new_state, result
