@@ -17,7 +17,12 @@ import cv2
 import numpy as np
 
 from mvtrack.params import Params
-from mvtrack.stages.background import background_step, train_background, training_offsets
+from mvtrack.stages.background import (
+    BackgroundState,
+    background_step,
+    train_background,
+    training_offsets,
+)
 from mvtrack.stages.blobtrack import track_masks, tracker_init
 from mvtrack.stages.feet import HeightMemory, complete_step, target_feet_records
 
@@ -41,10 +46,10 @@ def mog2_baseline(frames: Sequence[np.ndarray], params: Params) -> int:
     return blobs
 
 
-def run_frontend(frames: Sequence[np.ndarray], modality: str, params: Params,
-                 train: Sequence[np.ndarray], full: bool = True) -> int:
-    """mvtrack's front end: background subtraction, and with ``full`` the tracker and feet."""
-    bg = train_background(train, modality, params.background)
+def run_frontend(frames: Sequence[np.ndarray], params: Params, bg: BackgroundState,
+                 full: bool = True) -> int:
+    """mvtrack's front end from the trained state ``bg``: background subtraction, and with
+    ``full`` the tracker and feet."""
     tracker, heights = tracker_init(), HeightMemory()
     targets = 0
     for frame in frames:
@@ -71,7 +76,9 @@ def _seconds(fn: Callable[[], Any], repeats: int) -> float:
 
 @dataclass(frozen=True)
 class FrontEndBench:
-    """Camera-frames per second of each contender on the same frames, and memory growth."""
+    """Camera-frames per second of each contender on the same frames, memory growth, and the
+    seconds mvtrack's training takes once per run (the median of the training frames and a
+    first size model from them; MOG2 has none)."""
 
     name: str
     size: tuple[int, int]
@@ -80,6 +87,7 @@ class FrontEndBench:
     background_fps: float
     frontend_fps: float
     memory_growth: float  # traced peak over all frames / over the first third (1.0 = flat)
+    train_s: float
 
     def as_dict(self) -> dict[str, Any]:
         return {
@@ -92,6 +100,7 @@ class FrontEndBench:
             "background_vs_mog2": round(self.background_fps / self.mog2_fps, 3),
             "frontend_vs_mog2": round(self.frontend_fps / self.mog2_fps, 3),
             "memory_growth": round(self.memory_growth, 3),
+            "train_s": round(self.train_s, 2),
         }
 
 
@@ -111,14 +120,18 @@ def bench_frontend(name: str, frames: Sequence[np.ndarray], modality: str, param
     cv2.setNumThreads(1)
     try:
         train = [frames[i] for i in training_offsets(len(frames), params.background)]
+        start = time.perf_counter()
+        trained = train_background(train, modality, params.background)
+        train_s = time.perf_counter() - start
         n = len(frames)
         mog = _seconds(lambda: mog2_baseline(frames, params), repeats)
-        bg = _seconds(lambda: run_frontend(frames, modality, params, train, full=False), repeats)
-        full = _seconds(lambda: run_frontend(frames, modality, params, train), repeats)
+        bg = _seconds(lambda: run_frontend(frames, params, trained, full=False), repeats)
+        full = _seconds(lambda: run_frontend(frames, params, trained), repeats)
         third = max(1, n // 3)
-        short = _traced_peak(lambda: run_frontend(frames[:third], modality, params, train))
-        whole = _traced_peak(lambda: run_frontend(frames, modality, params, train))
+        short = _traced_peak(lambda: run_frontend(frames[:third], params, trained))
+        whole = _traced_peak(lambda: run_frontend(frames, params, trained))
     finally:
         cv2.setNumThreads(previous_threads)
     h, w = frames[0].shape[:2]
-    return FrontEndBench(name, (w, h), n, n / mog, n / bg, n / full, whole / max(short, 1))
+    return FrontEndBench(name, (w, h), n, n / mog, n / bg, n / full, whole / max(short, 1),
+                         train_s)
