@@ -285,10 +285,11 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
         if (abs(top[label] - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
                 or age >= cfg.complete_max_frames):
             heights, ref = (), 0.0  # its head is not where it was, or that was long ago
-        if heights and (
-            feet.height_px < (1.0 - loss) * ref if not cut[i]
-            else cut_below[i] and cfg.complete_min_shown_frac * ref <= feet.height_px < ref
-        ):
+        if cut[i]:  # only by the bottom border, and still showing enough of itself
+            short = cut_below[i] and cfg.complete_min_shown_frac * ref <= feet.height_px < ref
+        else:
+            short = feet.height_px < (1.0 - loss) * ref
+        if heights and short:
             out.append(_lengthen(feet, ref - feet.height_px))
             age += 1
         elif not cut[i] and not (heights and feet.height_px > (1.0 + loss) * ref):
