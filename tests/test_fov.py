@@ -326,3 +326,35 @@ def test_a_line_waits_for_enough_distinct_crossers() -> None:
     slot = estimate_line(slot, cfg, 200)
     assert slot.line is not None
     assert _line_error(np.array(slot.line.line), 1.0, 0.0, -150.0) < 3.0
+
+
+def test_a_line_through_one_crossers_bystander_is_not_taken() -> None:
+    """A person walking near B's border, in and out of the margin, gives an event each time,
+    and a bystander walking in A is at a new place at each: six events on the bystander's
+    path. Before the pair has a homography the line must explain events of
+    ``min_fov_crossers`` different crossers: the path (one crosser) gives no line, while it
+    is the strongest peak, and the true line comes when more people have crossed than that."""
+    cfg = FovConfig(min_fov_events=4, min_fov_crossers=3)
+    slot = new_slot("a", "b", "left", SIZE)
+    for k in range(6):  # crosser 7 in B; A's bystander 3 walks along y = 0.3 x + 150
+        x = 40.0 + 30.0 * k
+        slot = add_event(slot, 10 + 8 * k, _at([3], [[x, 0.3 * x + 150.0]]), cfg,
+                         event_target=7)
+    for k, xy in enumerate([[250.0, 40.0], [290.0, 100.0]]):  # two crossers A does not see
+        slot = add_event(slot, 100 + 10 * k, _at([40 + k], [xy]), cfg, event_target=20 + k)
+    plain = estimate_line(slot, replace(cfg, min_fov_crossers=1), 120)
+    assert plain.line is not None  # the strongest peak: the bystander's path
+    assert _line_error(np.array(plain.line.line), -0.3, 1.0, -150.0) < 2.0
+    assert estimate_line(slot, cfg, 120).line is None
+    bystanders = [[60.0, 60.0], [260.0, 180.0], [220.0, 30.0], [30.0, 120.0], [290.0, 60.0],
+                  [100.0, 40.0], [250.0, 220.0]]
+    ys = [40.0, 90.0, 150.0, 210.0, 65.0, 120.0, 180.0]
+    for k, (y, xy) in enumerate(zip(ys, bystanders, strict=True)):
+        # people cross B's left border, at A's x = 150, a bystander elsewhere each time
+        slot = add_event(slot, 200 + 40 * k, _at([50 + k, 60 + k], [[150.0, y], xy]), cfg,
+                         event_target=30 + k)
+        slot = estimate_line(slot, cfg, 200 + 40 * k)
+        if k < 5:  # up to five crossings the path's six events are the strongest peak
+            assert slot.line is None
+    assert slot.line is not None and slot.line.source == "events"
+    assert _line_error(np.array(slot.line.line), 1.0, 0.0, -150.0) < 3.0
