@@ -72,7 +72,8 @@ class HoughResult:
     peaks:       (K, 3) float64 rows [theta_rad, rho_px, votes], strongest first
     peak_line:   (3,) the strongest peak as a line [a, b, c]
     line:        (3,) the peak refined by weighted total least squares on its inliers
-    n_inliers:   points within ``hough_inlier_px`` of the refined line
+    inlier_events: (K,) int64 the events (indices into the points' ``owner``) whose point
+                 nearest the refined line is within ``hough_inlier_px`` of it
     """
 
     accumulator: np.ndarray
@@ -82,7 +83,12 @@ class HoughResult:
     peaks: np.ndarray
     peak_line: np.ndarray
     line: np.ndarray
-    n_inliers: int
+    inlier_events: np.ndarray
+
+    @property
+    def n_inliers(self) -> int:
+        """Points (one per event at most) within ``hough_inlier_px`` of the refined line."""
+        return len(self.inlier_events)
 
 
 @dataclass(frozen=True)
@@ -404,9 +410,11 @@ def hough_line(
         # tolerance), so a stray point near the line does not tilt the refinement.
         resid = np.abs(pts[near] @ line[:2] + line[2])
         tol = float(np.clip(3 * 1.4826 * np.median(resid), tol / 3, tol))
-    n_inliers = int(_nearest_per_event(line, pts, owner, cfg.hough_inlier_px).sum())
+    inliers = np.unique(np.asarray(owner)[_nearest_per_event(line, pts, owner,
+                                                              cfg.hough_inlier_px)])
     acc.flags.writeable = False
-    return HoughResult(acc, thetas, rhos, centre, peaks, peak_line, line, n_inliers)
+    return HoughResult(acc, thetas, rhos, centre, peaks, peak_line, line,
+                       inliers.astype(np.int64))
 
 
 def hough_points(
@@ -500,10 +508,8 @@ def estimate_line(
         return slot
     best, source = hough.line, "events"
     if H_seen_from_edge is None:
-        explained = _nearest_per_event(hough.line, points, owner, cfg.hough_inlier_px)
-        if _crossers(tuple(slot.events[k] for k in np.unique(owner[explained]))) < (
-            cfg.min_fov_crossers
-        ):
+        explained = tuple(slot.events[k] for k in hough.inlier_events)
+        if _crossers(explained) < cfg.min_fov_crossers:
             return replace(slot, hough=hough)  # the line it had, if any, stays
     elif slot.side != "top" and edge_size is not None:
         best, source = np.array(border_line(H_seen_from_edge, slot.side, edge_size)), "homography"
