@@ -25,6 +25,7 @@ import csv
 import json
 import math
 import multiprocessing
+import os
 import shutil
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
@@ -150,15 +151,22 @@ def refinished(plan: SweepPlan) -> set[str]:
 
 
 def _generate(scenario: str, seed: int, frames: int, size: tuple[int, int], path: Path) -> Path:
-    """Generate into a sibling temporary folder, then rename: an interrupted generation never
-    leaves a folder that looks like a finished clip."""
+    """Generate into a sibling temporary folder of this process, then rename: an interrupted
+    generation never leaves a folder that looks like a finished clip, and two sweeps sharing
+    a ``--clips`` cache do not write into one folder. If the other one's clip is there first,
+    ours is dropped (generation is deterministic: they are the same clip)."""
     from mvtrack.generate import generate_clip
 
-    partial = path.with_name(path.name + ".partial")
+    partial = path.with_name(f"{path.name}.partial-{os.getpid()}")
     shutil.rmtree(partial, ignore_errors=True)
     partial.parent.mkdir(parents=True, exist_ok=True)
     generate_clip(partial, scenario, seed=seed, frames=frames, size=size)
-    partial.rename(path)
+    try:
+        partial.rename(path)
+    except OSError:
+        if not path.is_dir():
+            raise
+        shutil.rmtree(partial, ignore_errors=True)
     return path
 
 

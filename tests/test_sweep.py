@@ -15,6 +15,7 @@ from mvtrack.sweep import (
     COLUMNS,
     SweepPlan,
     Variant,
+    _generate,
     check_plan,
     clip_name,
     parse_variant,
@@ -242,3 +243,19 @@ def test_a_clip_that_cannot_be_generated_fails_its_runs(tmp_path: Path) -> None:
     assert [r["variant"] for r in runs] == ["defaults", "b"]
     assert all(r["error"].startswith("generating the clip") for r in runs)
 
+
+
+def test_a_clip_another_sweep_generated_first_is_kept(tmp_path: Path) -> None:
+    """Two sweeps sharing a clip cache generate the same missing clip at once: each writes a
+    folder of its own, and the one that finishes second keeps the first one's clip and no
+    leftovers (before, both wrote into one '.partial' folder and the second rename failed:
+    'Directory not empty')."""
+    path = tmp_path / "clips" / clip_name("pair", 0, 10, (160, 120))
+    path.mkdir(parents=True)
+    (path / "theirs").write_text("the other sweep's clip")
+    assert _generate("pair", 0, 10, (160, 120), path) == path
+    assert sorted(p.name for p in path.iterdir()) == ["theirs"]
+    assert [p.name for p in path.parent.iterdir()] == [path.name]
+    fresh = tmp_path / "clips" / clip_name("pair", 1, 10, (160, 120))
+    _generate("pair", 1, 10, (160, 120), fresh)
+    assert (fresh / "clip.toml").is_file()
