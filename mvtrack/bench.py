@@ -57,7 +57,7 @@ def run_frontend(frames: Sequence[np.ndarray], params: Params, bg: BackgroundSta
         if full:
             tracker, tracks = track_masks(tracker, res.mvo_labels, frame, params.tracker, bg.sizes)
             heights, feet = complete_step(heights, target_feet_records(tracks, params.feet),
-                                          tracks, params.feet)
+                                          tracks, params.feet, bg.sizes)
             targets += len(feet)
         else:
             targets += len(res.blobs)

@@ -301,7 +301,8 @@ class Pipeline:
                                               feet_xy=d.feet)
         with timer("feet"):
             heights, feet = complete_step(state.heights, target_feet_records(tracks, p.feet),
-                                          tracks, p.feet)
+                                          tracks, p.feet,
+                                          None if bg_state is None else bg_state.sizes)
         self._states[cam.name] = _CameraState(bg_state, tracker, heights)
         targets = CameraTargets(
             labels=tracks.labels,

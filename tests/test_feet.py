@@ -14,6 +14,7 @@ from hypothesis import strategies as st
 from scipy import ndimage
 
 from mvtrack.params import FeetConfig, TrackerConfig
+from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import track_boxes, track_masks, tracker_init
 from mvtrack.stages.feet import (
     Feet,
@@ -428,11 +429,12 @@ def _behind_booth(frames: int, booth_row: int | None, booth_from: int, shape=(12
     return out
 
 
-def _completed(mvos: list[np.ndarray], cfg: FeetConfig = CFG) -> list[Feet]:
+def _completed(mvos: list[np.ndarray], cfg: FeetConfig = CFG,
+               sizes: SizeModel | None = None) -> list[Feet]:
     tracker, memory, feet = tracker_init(), HeightMemory(), []
     for mvo in mvos:
         tracker, res = track_masks(tracker, mvo, None, TrackerConfig())
-        memory, records = complete_step(memory, target_feet_records(res, cfg), res, cfg)
+        memory, records = complete_step(memory, target_feet_records(res, cfg), res, cfg, sizes)
         feet.append(records[0])
     return feet
 
@@ -497,3 +499,37 @@ def test_a_target_walking_out_below_keeps_its_feet_while_half_of_it_shows() -> N
     assert all(rec.completed_px == 0.0 for rec in feet[21:])  # under half: left at the edge
     off = _completed(_walking_out_below(26), FeetConfig(complete_min_shown_frac=1.0))
     assert all(rec.completed_px == 0.0 for rec in off)
+
+
+def _walking_in_below(frames: int, shape=(80, 100)) -> list[np.ndarray]:
+    """MVO label images of a person walking up the image into the frame over its bottom
+    border (row 79), 2 px a frame, top at row 60 - 2 f: never seen whole."""
+    out = []
+    for f in range(frames):
+        mvo = np.zeros(shape, np.int32)
+        mvo[60 - 2 * f :, 40:52] = 1
+        out.append(mvo)
+    return out
+
+
+def test_a_target_walking_in_below_gets_the_size_lines_height() -> None:
+    line = SizeModel(line=(0.4, 10.0), whole=(0.25, 20.0))  # whole: 0.25 * feet row + 20
+    feet = _completed(_walking_in_below(8), sizes=line)
+    for f, rec in enumerate(feet):
+        top = 59.5 - 2 * f  # the box's top edge
+        feet_row = (top + 20.0) / 0.75  # where the line puts a person whose head is there
+        shown = 79.5 - top
+        if shown < 0.5 * (feet_row - top):  # under half of the person shows: left as it is
+            assert rec.completed_px == 0.0
+            assert rec.point[1] == pytest.approx(79.5, abs=0.6)
+        else:
+            assert rec.point[1] == pytest.approx(feet_row, abs=0.6)  # below the frame
+            assert rec.height_px == pytest.approx(feet_row - top, abs=0.6)
+    assert [rec.completed_px > 0 for rec in feet] == [False, False] + [True] * 6
+    # no line of whole people (none learned yet, only a band of rows, no consensus)
+    for sizes in (None, SizeModel(band=(40.0, 0.0, 80.0)), SizeModel(line=(0.25, 20.0))):
+        assert all(rec.completed_px == 0.0 for rec in _completed(_walking_in_below(8),
+                                                                 sizes=sizes))
+    # a target seen whole keeps its own height, not the line's
+    out = _completed(_walking_out_below(26), sizes=SizeModel(whole=(0.0, 70.0)))
+    assert [rec.height_px for rec in out[11:21]] == pytest.approx([40.0] * 10, abs=0.6)

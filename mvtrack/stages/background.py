@@ -141,14 +141,24 @@ class SizeModel:
     While the samples' rows are too close together for a slope (people seen only far away, in
     one band of rows), the model is their median height near those rows (``band``).
 
+    People whose legs pass the shadow test end at the hips, mostly far away where they are
+    small: their samples are too short by a third to a half, and where they are most of a
+    band of rows they pull ``line`` down there and its slope up (generated 'tilted' s2 cam1,
+    frame 215: slope 0.56 for a truth of 0.32; 'pair' s2 cam1 0.44 for 0.19). ``whole`` is
+    the line most samples lie within ``size_whole_tol`` of (:func:`_whole_line`): the height
+    of someone seen whole, for the legs regrowth and the feet completion, which ask how tall
+    a person is. T_area and the fragment rules keep ``line``, which errs small.
+
     samples:  (N, 2) float64 [bottom row (px edge), height px], newest last, read-only
     line:     (slope, intercept) of the current fit, or None (too few or too clustered samples)
     band:     (median height, first row, last row) while there is no line, or None
+    whole:    (slope, intercept): the line of whole people, or None (no line, or no consensus)
     """
 
     samples: np.ndarray = field(default_factory=lambda: _readonly(np.zeros((0, 2))))
     line: tuple[float, float] | None = None
     band: tuple[float, float, float] | None = None
+    whole: tuple[float, float] | None = None
 
     def height_at(self, rows: np.ndarray) -> np.ndarray | None:
         """(K,) predicted person heights in px at the given bottom rows: the line's, else the
@@ -799,7 +809,7 @@ def _regrow_legs(  # noqa: PLR0913 (the MVOs, two pixel maps, sizes, history, th
     """
     score = np.array(legs_before[:, 0], np.float64)
     reach_row = blobs.box_xywh[blobs.is_mvo, 1] + blobs.box_xywh[blobs.is_mvo, 3] - 0.5
-    line = sizes.slope_intercept()
+    line = sizes.whole or sizes.slope_intercept()
     if not cfg.regrow_legs or line is None or line[0] >= 1.0:
         return False, score, reach_row
     slope, intercept = line
@@ -829,8 +839,11 @@ def _regrow_legs(  # noqa: PLR0913 (the MVOs, two pixel maps, sizes, history, th
         if not lost:
             continue
         x0 = round(x + 0.5)  # box edges to pixel indices (pixel p covers p +- 0.5)
-        start = round(y + 0.3 * height + 0.5)
-        torso = mvo_labels[round(y + 0.15 * height + 0.5) : start, x0 : x0 + int(w)] == label
+        start, torso_from = round(y + 0.3 * height + 0.5), round(y + 0.15 * height + 0.5)
+        if y < 0.5 and start > round(y + h + 0.5):  # cut by the top and ending above its
+            start = round(y + h + 0.5)  # torso rows (as a line of whole people puts them):
+            torso_from = max(0, start - round(0.15 * height))  # its last rows instead
+        torso = mvo_labels[torso_from:start, x0 : x0 + int(w)] == label
         torso_cols = np.flatnonzero(torso.any(axis=0))
         if len(torso_cols) == 0 or stop - start < 1:
             continue
@@ -1131,6 +1144,9 @@ def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
     return fit
 
 
+_WHOLE_DRAWS = 300  # candidate lines of _whole_line
+
+
 def _fit_sizes(samples: np.ndarray, frame_height: int, cfg: BackgroundConfig) -> SizeModel | None:
     """Robust line height = slope * row + intercept: least squares, then again on the samples
     within 2.5 robust sigmas (MAD) of it, twice. When the rows spread over less than
@@ -1160,7 +1176,45 @@ def _fit_sizes(samples: np.ndarray, frame_height: int, cfg: BackgroundConfig) ->
             return None
     if min(slope * lo + intercept, slope * hi + intercept) <= 0:
         return None
-    return SizeModel(samples, (float(slope), float(intercept)))
+    whole = _whole_line(rows, heights, frame_height, cfg)
+    if whole is not None and whole[0] > slope:  # lost legs only steepen the fit: not them
+        whole = None
+    return SizeModel(samples, (float(slope), float(intercept)), whole=whole)
+
+
+def _whole_line(rows: np.ndarray, heights: np.ndarray, frame_height: int,
+                cfg: BackgroundConfig) -> tuple[float, float] | None:
+    """The line (slope, intercept) through the most samples within ``size_whole_tol`` of
+    their predicted height, then refitted to those twice (RANSAC with a relative tolerance):
+    statures vary by +-8 %, legs lost at the hips take a third to a half. Candidates are the
+    lines through ``_WHOLE_DRAWS`` pairs of samples at least a tenth of the frame apart in
+    rows, drawn with a fixed seed (the same samples give the same line), that predict
+    positive heights on every sample's row with a slope in (0, 1). None without one, or
+    with fewer than half of ``size_min_samples`` near it. :func:`_fit_sizes` keeps it only
+    when it is no steeper than the least-squares line: short far samples steepen that one,
+    and a steeper consensus is of something else (people entering at the top, their heads
+    cut at row 1, give height = bottom row: 'pair' s3 cam1 frame 100, slope 0.96)."""
+    tol = cfg.size_whole_tol
+    i, j = np.random.default_rng(0).integers(0, len(rows), (2, _WHOLE_DRAWS))
+    apart = np.abs(rows[i] - rows[j]) >= 0.1 * frame_height
+    i, j = i[apart], j[apart]
+    slope = (heights[i] - heights[j]) / (rows[i] - rows[j])
+    intercept = heights[i] - slope * rows[i]
+    pred = slope[:, None] * rows[None, :] + intercept[:, None]  # (draws, samples)
+    ok = (slope > 0) & (slope < 1) & (pred.min(axis=1, initial=np.inf) > 0)
+    if not ok.any():
+        return None
+    near = np.abs(heights[None, :] - pred[ok]) <= tol * pred[ok]
+    best = near[np.argmax(near.sum(axis=1))]
+    for _ in range(2):
+        if best.sum() < cfg.size_min_samples // 2:
+            return None
+        fit = np.polyfit(rows[best], heights[best], 1)
+        pred_best = np.maximum(fit[0] * rows + fit[1], 1.0)
+        best = np.abs(heights - pred_best) <= tol * pred_best
+    if not 0.0 < fit[0] < 1.0:
+        return None
+    return float(fit[0]), float(fit[1])
 
 
 def background_step(

@@ -26,6 +26,7 @@ import cv2
 import numpy as np
 
 from mvtrack.params import FeetConfig
+from mvtrack.stages.background import SizeModel
 from mvtrack.stages.blobtrack import TrackResult
 from mvtrack.stages.targets import touching_sides
 
@@ -239,7 +240,8 @@ class HeightMemory:
 
 
 def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: TrackResult,
-                  cfg: FeetConfig) -> tuple[HeightMemory, tuple[Feet, ...]]:
+                  cfg: FeetConfig, sizes: SizeModel | None = None
+                  ) -> tuple[HeightMemory, tuple[Feet, ...]]:
     """Feet of mask targets that lost their lower body, put back where the body ends [beyond].
 
     Walking behind the booth or a person, or on trousers that match the ground, a target ends
@@ -260,7 +262,10 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
     touches the bottom border and no other (someone walking out towards the camera) lost its
     lower body to the frame: it gets its whole height back, its feet below the frame, while it
     shows at least ``complete_min_shown_frac`` of it (further out, the truth's walk and ours
-    part). Returns the new memory and the records (``result``'s order).
+    part). One never seen whole (walking in) gets the height the camera's line of whole
+    people (``sizes``, :attr:`~mvtrack.stages.background.SizeModel.whole`) gives a person
+    whose head is at its top, on the same terms. Returns the new memory and the records
+    (``result``'s order).
     """
     if result.label_image is None or not cfg.complete_short:
         return memory, records
@@ -285,11 +290,13 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
         if (abs(top[label] - memory.top.get(label, np.inf)) > cfg.complete_top_step_frac * ref
                 or age >= cfg.complete_max_frames):
             heights, ref = (), 0.0  # its head is not where it was, or that was long ago
+        if cut_below[i] and not heights:
+            ref = _line_height(sizes, top[label])
         if cut[i]:  # only by the bottom border, and still showing enough of itself
             short = cut_below[i] and cfg.complete_min_shown_frac * ref <= feet.height_px < ref
         else:
             short = feet.height_px < (1.0 - loss) * ref
-        if heights and short:
+        if short and (heights or cut[i]):
             out.append(_lengthen(feet, ref - feet.height_px))
             age += 1
         elif not cut[i] and not (heights and feet.height_px > (1.0 + loss) * ref):
@@ -301,6 +308,16 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
         if heights:
             whole[label], since[label] = heights, age
     return HeightMemory(whole, since, top), tuple(out)
+
+
+def _line_height(sizes: SizeModel | None, top: float) -> float:
+    """The height in px of a whole person whose head is at row ``top`` (px edge) by the
+    size model's line of whole people (:attr:`SizeModel.whole`): their feet row y_f solves
+    y_f - top = slope * y_f + intercept; 0 without that line."""
+    if sizes is None or sizes.whole is None:
+        return 0.0
+    slope, intercept = sizes.whole
+    return max(0.0, (top + intercept) / (1.0 - slope) - top)
 
 
 def _lengthen(feet: Feet, step_px: float) -> Feet:
