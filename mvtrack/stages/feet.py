@@ -296,7 +296,7 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
             short = cut_below[i] and cfg.complete_min_shown_frac * ref <= feet.height_px < ref
         else:
             short = feet.height_px < (1.0 - loss) * ref
-        if short and (heights or cut[i]):
+        if short:  # ref > 0: a remembered height, or the line's for one walking in
             out.append(_lengthen(feet, ref - feet.height_px))
             age += 1
         elif not cut[i] and not (heights and feet.height_px > (1.0 + loss) * ref):
