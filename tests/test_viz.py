@@ -95,6 +95,7 @@ PER_FRAME = {  # layer -> archetype column that must be there on every frame
     "masks": "SegmentationImage:buffer",
     "labels": "SegmentationImage:buffer",
     "blobs": "Boxes2D:half_sizes",
+    "heights": "LineStrips2D:strips",
     "targets": "Boxes2D:class_ids",
     "feet": "Points2D:positions",
     "feet_final": "Points2D:positions",  # logged after the run, for every frame
@@ -622,6 +623,32 @@ def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:
     log_meta(sink, meta(same_camera))  # type: ignore[arg-type]
     assert told[-1] == ("link A t1 ↔ B t8 rejected: B t7 keeps the meta-target "
                         "(a meta-target holds one target of B)")
+
+
+def test_the_heights_layer_ends_where_the_size_model_puts_the_feet() -> None:
+    """A head at row 39.5 (px edge) with people 0.25 * row + 10 px tall has its feet at row
+    66: (66 - 39.5) = 0.25 * 66 + 10, by the line of whole people or, without one, by the
+    least-squares line, as the legs regrowth reads them. MVOs cut by the top border (their
+    head unseen) and blobs that are not MVOs get no line; without a model, no MVO does."""
+    from types import SimpleNamespace
+
+    from mvtrack.stages.background import SizeModel
+    from mvtrack.viz.sink import RerunSink
+
+    logged: list[tuple[Any, ...]] = []
+    sink = SimpleNamespace(rec=SimpleNamespace(log=lambda path, *arch: logged.append(arch)))
+    blobs = SimpleNamespace(box_xywh=np.array([[19.5, 39.5, 10.0, 20.0], [59.5, -0.5, 10.0, 30.0],
+                                               [99.5, 39.5, 10.0, 20.0]]),
+                            is_mvo=np.array([True, True, False]))
+    one = [[[25.0, 40.0], [25.0, 66.5]]]
+    for sizes, want in ((SizeModel(line=(0.4, 5.0), whole=(0.25, 10.0)), one),
+                        (SizeModel(line=(0.25, 10.0)), one), (SizeModel(), [])):
+        bg = SimpleNamespace(blobs=blobs, sizes=sizes)
+        RerunSink._log_heights(sink, "cam0", bg)  # type: ignore[arg-type]
+        strips = logged[-1][0].as_component_batches()[0].as_arrow_array().to_pylist()
+        np.testing.assert_allclose(np.array(strips, np.float64).reshape(-1, 2, 2),
+                                   np.array(want, np.float64).reshape(-1, 2, 2))
+    assert [len(arch) for arch in logged] == [2, 2, 1]  # hover values with a line
 
 
 def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:

@@ -1,7 +1,8 @@
 """Single-camera deep dive: the frame with every layer, masks, background and D_B.
 
-One tab per camera; in each, the main view (frame, masks, labels, blobs, targets, feet, FOV
-lines, markers, projections) beside the background, D_B and the mask legend's view.
+One tab per camera; in each, the main view (frame, masks, labels, blobs, the size model's
+heights, targets, feet, FOV lines, markers, projections) beside the background, D_B and the
+mask legend's view.
 """
 
 from __future__ import annotations
@@ -17,8 +18,9 @@ __all__ = ["build"]
 
 
 def _camera_tab(cam: str) -> rrb.Container:
-    main = camera_view(cam, extra=[paths.camera_layer(cam, "masks"),
-                                   paths.camera_layer(cam, "blobs")], name=f"{cam}: all layers")
+    main = camera_view(cam, extra=[paths.camera_layer(cam, layer)
+                                   for layer in ("masks", "blobs", "heights")],
+                       name=f"{cam}: all layers")
     side = rrb.Vertical(
         rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: background B",
                           contents=[paths.camera_layer(cam, "background")]),
@@ -26,9 +28,10 @@ def _camera_tab(cam: str) -> rrb.Container:
                           name=f"{cam}: D_B (white: far from the background)",
                           contents=[paths.camera_layer(cam, "distance"),
                                     paths.camera_layer(cam, "blobs")]),
-        rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: masks (MVO, ghost, shadows)",
-                          contents=[paths.camera_layer(cam, "masks"),
-                                    paths.camera_layer(cam, "blobs")]),
+        rrb.Spatial2DView(origin=paths.camera(cam),
+                          name=f"{cam}: masks (MVO, ghost, shadows), whole people's heights",
+                          contents=[paths.camera_layer(cam, layer)
+                                    for layer in ("masks", "blobs", "heights")]),
     )
     below = rrb.Horizontal(
         rrb.TimeSeriesView(origin=f"{paths.METRICS}/targets", name="targets per camera"),

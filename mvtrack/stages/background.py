@@ -96,6 +96,7 @@ __all__ = [
     "SizeModel",
     "background_step",
     "box_intersections",
+    "feet_row",
     "link_groups",
     "min_area_at",
     "stacked_boxes",
@@ -174,6 +175,20 @@ class SizeModel:
     def slope_intercept(self) -> tuple[float, float] | None:
         """The line, or the band as a flat line (check :meth:`height_at` for its rows)."""
         return self.line if self.line is not None or self.band is None else (0.0, self.band[0])
+
+    def legs_line(self) -> tuple[float, float] | None:
+        """The line the legs regrowth reads (:func:`_regrow_legs`): :attr:`whole`, else the
+        line or band (:meth:`slope_intercept`); None with neither or a slope of 1 or more."""
+        line = self.whole or self.slope_intercept()
+        return line if line is not None and line[0] < 1.0 else None
+
+
+def feet_row(line: tuple[float, float], top: np.ndarray) -> np.ndarray:
+    """The feet rows (px edges) of whole people whose heads are at rows ``top`` (px edges) when
+    height = slope * row + intercept (slope < 1): y_f solves y_f - top = slope * y_f +
+    intercept."""
+    slope, intercept = line
+    return (np.asarray(top, np.float64) + intercept) / (1.0 - slope)
 
 
 @dataclass(frozen=True, eq=False)
@@ -299,6 +314,8 @@ class BackgroundResult:
     fg_shadow:      bool, shadow pixels connected (8-neighbourhood, through shadow) to an MVO
     ghost_shadow:   bool, the other shadow pixels
     blobs:          per-blob table
+    sizes:          the camera's size model as this frame's legs regrowth read it (T_area
+                    reads the training frames' while this one has no line or band yet)
     """
 
     frame_index: int
@@ -313,6 +330,7 @@ class BackgroundResult:
     fg_shadow: np.ndarray
     ghost_shadow: np.ndarray
     blobs: BlobTable
+    sizes: SizeModel
 
     @property
     def mvo_mask(self) -> np.ndarray:
@@ -809,17 +827,16 @@ def _regrow_legs(  # noqa: PLR0913 (the MVOs, two pixel maps, sizes, history, th
     """
     score = np.array(legs_before[:, 0], np.float64)
     reach_row = blobs.box_xywh[blobs.is_mvo, 1] + blobs.box_xywh[blobs.is_mvo, 3] - 0.5
-    line = sizes.whole or sizes.slope_intercept()
-    if not cfg.regrow_legs or line is None or line[0] >= 1.0:
+    line = sizes.legs_line()
+    if not cfg.regrow_legs or line is None:
         return False, score, reach_row
-    slope, intercept = line
     t_low = _u8_floor(cfg.t_low)
     grown = False
     rows, cols = mvo_labels.shape
-    for i, ((x, y, w, h), label) in enumerate(zip(
-        blobs.box_xywh[blobs.is_mvo], blobs.mvo_label[blobs.is_mvo], strict=True
+    box = blobs.box_xywh[blobs.is_mvo]
+    for i, ((x, y, w, h), label, feet_edge) in enumerate(zip(
+        box, blobs.mvo_label[blobs.is_mvo], feet_row(line, box[:, 1]).tolist(), strict=True
     )):
-        feet_edge = (y + intercept) / (1.0 - slope)
         height = feet_edge - y
         gap = feet_edge - (y + h)
         held = sizes.height_at(np.array([feet_edge]))  # NaN beyond a band's rows
@@ -1286,6 +1303,7 @@ def background_step(
         fg_shadow=fg_shadow,
         ghost_shadow=shadow & ~fg_shadow,
         blobs=blobs,
+        sizes=state.sizes,
     )
     new_state = BackgroundState(
         modality=state.modality,

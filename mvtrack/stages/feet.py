@@ -26,7 +26,7 @@ import cv2
 import numpy as np
 
 from mvtrack.params import FeetConfig
-from mvtrack.stages.background import SizeModel
+from mvtrack.stages.background import SizeModel, feet_row
 from mvtrack.stages.blobtrack import TrackResult
 from mvtrack.stages.targets import touching_sides
 
@@ -312,12 +312,10 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
 
 def _line_height(sizes: SizeModel | None, top: float) -> float:
     """The height in px of a whole person whose head is at row ``top`` (px edge) by the
-    size model's line of whole people (:attr:`SizeModel.whole`): their feet row y_f solves
-    y_f - top = slope * y_f + intercept; 0 without that line."""
+    size model's line of whole people (:attr:`SizeModel.whole`); 0 without that line."""
     if sizes is None or sizes.whole is None:
         return 0.0
-    slope, intercept = sizes.whole
-    return max(0.0, (top + intercept) / (1.0 - slope) - top)
+    return max(0.0, float(feet_row(sizes.whole, np.array(top))) - top)
 
 
 def _lengthen(feet: Feet, step_px: float) -> Feet:

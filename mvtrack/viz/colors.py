@@ -15,7 +15,8 @@ from functools import cache
 import cv2
 import numpy as np
 
-__all__ = ["MASK_COLORS", "PALETTE_SIZE", "camera_color", "meta_color", "meta_colors"]
+__all__ = ["HEIGHTS_COLOR", "HEIGHTS_FALLBACK_COLOR", "MASK_COLORS", "PALETTE_SIZE", "camera_color",
+           "meta_color", "meta_colors"]
 
 PALETTE_SIZE = 32
 """Distinct meta colours; metas m and m + PALETTE_SIZE share one."""
@@ -30,6 +31,12 @@ MASK_COLORS = {
     5: (255, 120, 200),  # border mover (kept out of B, not tracked): pink
 }
 """RGB colour of each class of the mask layer (:data:`mvtrack.viz.paths.MASK_LAYER`)."""
+
+HEIGHTS_COLOR = (255, 255, 255)
+"""RGB colour of the heights layer read off the line of whole people (white: apart from every
+mask class)."""
+HEIGHTS_FALLBACK_COLOR = (150, 150, 150)
+"""RGB colour of the heights layer while the size model has no line of whole people (gray)."""
 
 
 def meta_color(meta: int) -> tuple[int, int, int]:

@@ -22,6 +22,12 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
     /cameras/{cam}/blobs            Boxes2D + AnyValues: candidate blobs, hover shows area_px,
                                     area_threshold_px (T_area at the blob's row), max_distance,
                                     mean_flow_px, is_mvo, border_mover
+    /cameras/{cam}/heights          LineStrips2D + AnyValues: per MVO below the top border, a
+                                    line from its top edge down to the feet row the size model
+                                    puts under a head there (where its legs are regrown to):
+                                    white from the line of whole people, gray from the
+                                    least-squares line; hover shows predicted_height_px,
+                                    box_height_px, whole_line
     /cameras/{cam}/targets          Boxes2D: target boxes, class id = meta,
                                     label "t{target} m{meta}", "· {enter|leave} {side}" added
                                     at a FOV event
@@ -147,7 +153,7 @@ METRICS = "/metrics"
 SUMMARY = "/metrics/summary"
 
 CAMERA_LAYERS = (
-    "image", "background", "distance", "masks", "labels", "blobs", "targets", "feet",
+    "image", "background", "distance", "masks", "labels", "blobs", "heights", "targets", "feet",
     "feet_final", "resolved", "fov_events", "cues",
 )
 """Layers of a camera that have no second camera in their path."""

@@ -49,9 +49,10 @@ from mvtrack.io import ClipSpec, Truth
 from mvtrack.io.results import TrackRows
 from mvtrack.params import Params, dump_params
 from mvtrack.pipeline import CameraResult, FrameResult
+from mvtrack.stages.background import BackgroundResult, feet_row
 from mvtrack.stages.resolve import Switch
 from mvtrack.viz import paths
-from mvtrack.viz.colors import camera_color
+from mvtrack.viz.colors import HEIGHTS_COLOR, HEIGHTS_FALLBACK_COLOR, camera_color
 from mvtrack.viz.log import (
     ImageOptions,
     blobs_layer,
@@ -388,6 +389,30 @@ class RerunSink:
         # (Rerun warns on an empty AnyValues: a frame without blobs has nothing to hover)
         self.rec.log(paths.camera_layer(name, "blobs"),
                      blobs_layer(boxes, blobs.is_mvo, blobs.border_mover), *hover)
+        self._log_heights(name, cam.background)
+
+    def _log_heights(self, name: str, bg: BackgroundResult) -> None:
+        """Per MVO below the top border, a line down its middle from its top edge to the feet
+        row the size model puts under a head there (:func:`~mvtrack.stages.background.feet_row`
+        on :meth:`~mvtrack.stages.background.SizeModel.legs_line`): where the legs regrowth
+        grows legs to, white while that is the line of whole people (which the feet completion
+        reads too), gray while it is the least-squares line. An MVO ending above the line's
+        end lost its legs; a line running past the person's feet, into the cast shadow, is a
+        size model taught by the wrong samples."""
+        line = bg.sizes.legs_line()
+        box = bg.blobs.box_xywh[bg.blobs.is_mvo]
+        box = box[box[:, 1] >= 0.5] if line is not None else box[:0]  # top edge -0.5: cut
+        top = box[:, 1]
+        feet = feet_row(line, top) if line is not None else top
+        x = box[:, 0] + box[:, 2] / 2.0
+        strips = [to_viewer(np.array([[cx, y0], [cx, y1]]))
+                  for cx, y0, y1 in zip(x.tolist(), top.tolist(), feet.tolist(), strict=True)]
+        hover = [rr.AnyValues(predicted_height_px=feet - top, box_height_px=box[:, 3],
+                              whole_line=np.full(len(box), bg.sizes.whole is not None))
+                 ] if len(box) else []
+        color = HEIGHTS_COLOR if bg.sizes.whole is not None else HEIGHTS_FALLBACK_COLOR
+        self.rec.log(paths.camera_layer(name, "heights"),
+                     rr.LineStrips2D(strips, colors=color, radii=0.5, draw_order=6.0), *hover)
 
     def _tracker_events(self, name: str, cam: CameraResult) -> None:
         t = cam.tracks
