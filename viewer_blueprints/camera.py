@@ -29,7 +29,7 @@ def _camera_tab(cam: str) -> rrb.Container:
                           contents=[paths.camera_layer(cam, "distance"),
                                     paths.camera_layer(cam, "blobs")]),
         rrb.Spatial2DView(origin=paths.camera(cam),
-                          name=f"{cam}: masks (MVO, ghost, shadows), whole people's heights",
+                          name=f"{cam}: masks (MVO, ghost, shadows), heights",
                           contents=[paths.camera_layer(cam, layer)
                                     for layer in ("masks", "blobs", "heights")]),
     )
