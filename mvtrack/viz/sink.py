@@ -83,7 +83,8 @@ class LogOptions:
 
     images:            JPEG/lossless encoding of frames, backgrounds and D_B
     background_every:  log the background B every N frames (it changes slowly); 0: never
-    distance, masks, labels, blobs: per-camera layers on/off
+    distance, masks, labels, blobs: per-camera layers on/off (``blobs`` with the size
+                       model's heights, drawn on the MVO blobs)
     pairs, ground:     pair layers and the ground map on/off
     thread:            encode the image layers on a helper thread while the frame's other
                        layers are logged (same recording)
