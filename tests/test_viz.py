@@ -98,6 +98,8 @@ PER_FRAME = {  # layer -> archetype column that must be there on every frame
     "heights": "LineStrips2D:strips",
     "targets": "Boxes2D:class_ids",
     "feet": "Points2D:positions",
+    "truth": "Boxes2D:half_sizes",  # the scene has truth
+    "truth_feet": "Points2D:positions",
     "feet_final": "Points2D:positions",  # logged after the run, for every frame
 }
 
@@ -649,6 +651,39 @@ def test_the_heights_layer_ends_where_the_size_model_puts_the_feet() -> None:
         np.testing.assert_allclose(np.array(strips, np.float64).reshape(-1, 2, 2),
                                    np.array(want, np.float64).reshape(-1, 2, 2))
     assert [len(arch) for arch in logged] == [2, 2, 1]  # hover values with a line
+
+
+def test_the_truth_layers_draw_this_frames_true_people_and_clear_without_them() -> None:
+    from types import SimpleNamespace
+
+    from mvtrack.io.truth import CameraTruth, Truth
+    from mvtrack.viz.sink import RerunSink
+
+    ct = CameraTruth("cam0", np.array([3, 3, 4]), np.array([7, 9, 7]),
+                     np.array([[10.0, 50.0], [30.0, 60.0], [11.0, 51.0]]),
+                     np.array([[4.5, 9.5, 11.0, 41.0], [24.5, 19.5, 12.0, 41.0],
+                               [5.5, 10.5, 11.0, 41.0]]), np.array([1.0, 0.6, 1.0]))
+    truth = Truth(Path("truth"), {"cam0": ct}, {}, None, None)
+    logged: dict[tuple[str, int], tuple[Any, ...]] = {}
+    sink = SimpleNamespace(truth=truth, _truth_rows=RerunSink._index_truth(truth))
+    for frame in (3, 5):
+        sink.rec = SimpleNamespace(
+            log=lambda path, *arch, f=frame: logged.__setitem__((path, f), arch))
+        RerunSink._log_truth(sink, "cam0", frame)  # type: ignore[arg-type]
+
+    def batch(path: str, frame: int, component: str) -> list[Any]:
+        for b in logged[path, frame][0].as_component_batches():
+            if b.component_descriptor().component.endswith(component):
+                return list(b.as_arrow_array().to_pylist())
+        raise AssertionError(f"no {component} at {path}")
+
+    boxes, feet = paths.camera_layer("cam0", "truth"), paths.camera_layer("cam0", "truth_feet")
+    persons = logged[boxes, 3][1].as_component_batches()
+    assert [b.as_arrow_array().to_pylist() for b in persons][0] == [7, 9]
+    np.testing.assert_allclose(batch(boxes, 3, "centers"), [[10.5, 30.5], [31.0, 40.5]])
+    np.testing.assert_allclose(batch(feet, 3, "positions"), [[10.5, 50.5], [30.5, 60.5]])
+    assert batch(boxes, 5, "centers") == [] and batch(feet, 5, "positions") == []
+    assert len(logged[boxes, 3]) == 2 and len(logged[boxes, 5]) == 1  # hover values if any
 
 
 def test_the_event_log_tells_why_a_tracker_label_went_or_came() -> None:

@@ -15,8 +15,8 @@ from functools import cache
 import cv2
 import numpy as np
 
-__all__ = ["HEIGHTS_COLOR", "HEIGHTS_FALLBACK_COLOR", "MASK_COLORS", "PALETTE_SIZE", "camera_color",
-           "meta_color", "meta_colors"]
+__all__ = ["HEIGHTS_COLOR", "HEIGHTS_FALLBACK_COLOR", "MASK_COLORS", "PALETTE_SIZE", "TRUTH_COLOR",
+           "camera_color", "meta_color", "meta_colors"]
 
 PALETTE_SIZE = 32
 """Distinct meta colours; metas m and m + PALETTE_SIZE share one."""
@@ -37,6 +37,8 @@ HEIGHTS_COLOR = (255, 255, 255)
 mask class)."""
 HEIGHTS_FALLBACK_COLOR = (150, 150, 150)
 """RGB colour of the heights layer while the size model has no line of whole people (gray)."""
+TRUTH_COLOR = (90, 255, 150)
+"""RGB colour of the true people drawn in a camera (a green no mask class uses)."""
 
 
 def meta_color(meta: int) -> tuple[int, int, int]:

@@ -32,6 +32,10 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     label "t{target} m{meta}", "· {enter|leave} {side}" added
                                     at a FOV event
     /cameras/{cam}/feet             Points2D: feet, class id = meta
+    /cameras/{cam}/truth            Boxes2D + AnyValues: the true people (truth clips only),
+                                    green boxes; hover shows person, visible, in_frame (the
+                                    fractions of the person seen and in the frame)
+    /cameras/{cam}/truth_feet       Points2D: their true feet, green
     /cameras/{cam}/feet_final       Points2D: the feet `mvtrack track` writes to tracks.csv,
                                     smoothed over the run, logged for every frame once the run
                                     ends, class id = whole-run meta
@@ -154,7 +158,7 @@ SUMMARY = "/metrics/summary"
 
 CAMERA_LAYERS = (
     "image", "background", "distance", "masks", "labels", "blobs", "heights", "targets", "feet",
-    "feet_final", "resolved", "fov_events", "cues",
+    "truth", "truth_feet", "feet_final", "resolved", "fov_events", "cues",
 )
 """Layers of a camera that have no second camera in their path."""
 

@@ -52,7 +52,7 @@ from mvtrack.pipeline import CameraResult, FrameResult
 from mvtrack.stages.background import BackgroundResult, feet_row
 from mvtrack.stages.resolve import Switch
 from mvtrack.viz import paths
-from mvtrack.viz.colors import HEIGHTS_COLOR, HEIGHTS_FALLBACK_COLOR, camera_color
+from mvtrack.viz.colors import HEIGHTS_COLOR, HEIGHTS_FALLBACK_COLOR, TRUTH_COLOR, camera_color
 from mvtrack.viz.log import (
     ImageOptions,
     blobs_layer,
@@ -300,6 +300,7 @@ class RerunSink:
             self._log_camera(name, cam, result.metas[name], events.get(name, {}))
             rec.log(paths.targets_metric(name), rr.Scalars(float(len(cam.targets))))
             self._foot_error(name, cam, result.index)
+            self._log_truth(name, result.index)
         for stage, ms in result.stage_ms.items():
             rec.log(paths.stage_ms(stage), rr.Scalars(ms))
         pairs = result.pairs
@@ -450,6 +451,26 @@ class RerunSink:
             self.rec.log(paths.foot_error(name), rr.Scalars(float(err.mean())))
             total, count = self._foot_sums.get(name, (0.0, 0))
             self._foot_sums[name] = (total + float(err.sum()), count + len(err))
+
+    def _log_truth(self, name: str, index: int) -> None:
+        """The true people of this frame in the camera (truth clips only): their boxes and
+        feet, with the person id and visible and in-frame fractions on hover (a label would sit
+        on the target's, under the same box); empty where the truth lists nobody, so no earlier
+        frame's people stay drawn."""
+        if self.truth is None or name not in self.truth.cameras:
+            return
+        ct = self.truth.cameras[name]
+        rows = self._truth_rows.get(name, {}).get(index, np.zeros(0, np.int64))
+        boxes = ct.box_xywh[rows].copy()
+        boxes[:, :2] += 0.5
+        assert ct.in_frame is not None
+        hover = [rr.AnyValues(person=ct.person[rows], visible=ct.visible[rows],
+                              in_frame=ct.in_frame[rows])] if len(rows) else []
+        self.rec.log(paths.camera_layer(name, "truth"), rr.Boxes2D(
+            array=boxes, array_format=rr.Box2DFormat.XYWH, colors=TRUTH_COLOR, radii=0.5,
+            draw_order=9.0), *hover)
+        self.rec.log(paths.camera_layer(name, "truth_feet"), rr.Points2D(
+            to_viewer(ct.foot[rows]), colors=TRUTH_COLOR, radii=1.5, draw_order=9.5))
 
     def mean_foot_errors(self) -> dict[str, float]:
         """Per camera, the mean foot error (px) over every matched target so far (truth only)."""
