@@ -671,15 +671,14 @@ def test_the_truth_layers_draw_this_frames_true_people_and_clear_without_them() 
             log=lambda path, *arch, f=frame: logged.__setitem__((path, f), arch))
         RerunSink._log_truth(sink, "cam0", frame)  # type: ignore[arg-type]
 
-    def batch(path: str, frame: int, component: str) -> list[Any]:
-        for b in logged[path, frame][0].as_component_batches():
+    def batch(path: str, frame: int, component: str, archetype: int = 0) -> list[Any]:
+        for b in logged[path, frame][archetype].as_component_batches():
             if b.component_descriptor().component.endswith(component):
                 return list(b.as_arrow_array().to_pylist())
         raise AssertionError(f"no {component} at {path}")
 
     boxes, feet = paths.camera_layer("cam0", "truth"), paths.camera_layer("cam0", "truth_feet")
-    persons = logged[boxes, 3][1].as_component_batches()
-    assert [b.as_arrow_array().to_pylist() for b in persons][0] == [7, 9]
+    assert batch(boxes, 3, "person", archetype=1) == [7, 9]  # the hover values
     np.testing.assert_allclose(batch(boxes, 3, "centers"), [[10.5, 30.5], [31.0, 40.5]])
     np.testing.assert_allclose(batch(feet, 3, "positions"), [[10.5, 50.5], [30.5, 60.5]])
     assert batch(boxes, 5, "centers") == [] and batch(feet, 5, "positions") == []
