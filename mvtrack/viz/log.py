@@ -102,6 +102,14 @@ def to_viewer(points_xy: np.ndarray) -> np.ndarray:
     return np.asarray(points_xy, np.float64).reshape(-1, 2) + _HALF_PX
 
 
+def boxes_to_viewer(box_xywh: np.ndarray) -> np.ndarray:
+    """(N, 4) float64: boxes [x, y, w, h] with x, y at mvtrack pixel edges -> Rerun 2D view
+    coordinates (the corner +0.5 px, the size as is)."""
+    out = np.array(box_xywh, np.float64).reshape(-1, 4)
+    out[:, :2] += _HALF_PX
+    return out
+
+
 def image_layer(image: np.ndarray, opts: ImageOptions,
                 draw_order: float = -10.0) -> rr.AsComponents:
     """The frame or background ((H,W,3) BGR or (H,W) gray uint8) as JPEG or lossless."""

@@ -56,6 +56,7 @@ from mvtrack.viz.colors import HEIGHTS_COLOR, HEIGHTS_FALLBACK_COLOR, TRUTH_COLO
 from mvtrack.viz.log import (
     ImageOptions,
     blobs_layer,
+    boxes_to_viewer,
     distance_layer,
     image_layer,
     mask_context,
@@ -368,11 +369,9 @@ class RerunSink:
                 + (f" · feet +{f.completed_px:.0f} px" if f.completed_px > 0 else "")
                 for t, m, f in zip(targets.labels.tolist(), metas.tolist(), cam.feet,
                                    strict=True)]
-        boxes = targets.boxes_xywh.copy()
-        boxes[:, :2] += 0.5
         rec.log(paths.camera_layer(name, "targets"), rr.Boxes2D(
-            array=boxes, array_format=rr.Box2DFormat.XYWH, class_ids=metas, labels=text,
-            radii=1.0, draw_order=10.0))
+            array=boxes_to_viewer(targets.boxes_xywh), array_format=rr.Box2DFormat.XYWH,
+            class_ids=metas, labels=text, radii=1.0, draw_order=10.0))
         rec.log(paths.camera_layer(name, "feet"), rr.Points2D(
             to_viewer(targets.feet), class_ids=metas, radii=3.0, draw_order=11.0))
         self._tracker_events(name, cam)
@@ -380,8 +379,7 @@ class RerunSink:
     def _log_blobs(self, name: str, cam: CameraResult) -> None:
         assert cam.background is not None
         blobs = cam.background.blobs
-        boxes = blobs.box_xywh.copy()
-        boxes[:, :2] += 0.5
+        boxes = boxes_to_viewer(blobs.box_xywh)
         hover = [rr.AnyValues(area_px=blobs.area_px.astype(np.float64),
                               area_threshold_px=blobs.area_threshold_px.astype(np.float64),
                               max_distance=blobs.max_distance.astype(np.float64),
@@ -401,18 +399,18 @@ class RerunSink:
         reads too), gray while it is the least-squares line. An MVO ending above the line's
         end lost its legs; a line running past the person's feet, into the cast shadow, is a
         size model taught by the wrong samples."""
-        line = bg.sizes.legs_line()
+        line, whole = bg.sizes.legs_line(), bg.sizes.whole is not None
         box = bg.blobs.box_xywh[bg.blobs.is_mvo]
-        box = box[box[:, 1] >= 0.5] if line is not None else box[:0]  # top edge -0.5: cut
-        top = box[:, 1]
-        feet = feet_row(line, top) if line is not None else top
+        box = box[box[:, 1] >= 0.5]  # a box on the top border has its top edge at -0.5
+        if line is None:
+            box, line = box[:0], (0.0, 0.0)
+        top, feet = box[:, 1], feet_row(line, box[:, 1])
         x = box[:, 0] + box[:, 2] / 2.0
         strips = [to_viewer(np.array([[cx, y0], [cx, y1]]))
                   for cx, y0, y1 in zip(x.tolist(), top.tolist(), feet.tolist(), strict=True)]
         hover = [rr.AnyValues(predicted_height_px=feet - top, box_height_px=box[:, 3],
-                              whole_line=np.full(len(box), bg.sizes.whole is not None))
-                 ] if len(box) else []
-        color = HEIGHTS_COLOR if bg.sizes.whole is not None else HEIGHTS_FALLBACK_COLOR
+                              whole_line=np.full(len(box), whole))] if len(box) else []
+        color = HEIGHTS_COLOR if whole else HEIGHTS_FALLBACK_COLOR
         self.rec.log(paths.camera_layer(name, "heights"),
                      rr.LineStrips2D(strips, colors=color, radii=0.5, draw_order=6.0), *hover)
 
@@ -461,14 +459,12 @@ class RerunSink:
             return
         ct = self.truth.cameras[name]
         rows = self._truth_rows.get(name, {}).get(index, np.zeros(0, np.int64))
-        boxes = ct.box_xywh[rows].copy()
-        boxes[:, :2] += 0.5
         assert ct.in_frame is not None
         hover = [rr.AnyValues(person=ct.person[rows], visible=ct.visible[rows],
                               in_frame=ct.in_frame[rows])] if len(rows) else []
         self.rec.log(paths.camera_layer(name, "truth"), rr.Boxes2D(
-            array=boxes, array_format=rr.Box2DFormat.XYWH, colors=TRUTH_COLOR, radii=0.5,
-            draw_order=9.0), *hover)
+            array=boxes_to_viewer(ct.box_xywh[rows]), array_format=rr.Box2DFormat.XYWH,
+            colors=TRUTH_COLOR, radii=0.5, draw_order=9.0), *hover)
         self.rec.log(paths.camera_layer(name, "truth_feet"), rr.Points2D(
             to_viewer(ct.foot[rows]), colors=TRUTH_COLOR, radii=1.5, draw_order=9.5))
 
