@@ -217,3 +217,59 @@ def test_meta_still_seen_elsewhere_is_not_resumed_by_position() -> None:
     state, r = step(state, cams1, [], 1)
     assert meta_of(r, "B", 7, cams1) == 1
     assert meta_of(r, "A", 2, cams1) != 1 and r.resumed == ()
+
+
+def _split(last: int, body_x: float = 55.0, cfg: MetaConfig = CFG,
+           body_partner: bool = False) -> tuple[MetaState, object, dict[str, CameraTargets]]:
+    """Meta 1's target (label 1) follows a piece of its person from frame 1 while the body gets
+    label 2 (a new meta) 15 px away; label 1 is last seen at frame ``last``."""
+    state, _ = step(meta_init(), {"A": at(1, 40)}, [], 0, cfg)
+    for frame in range(1, last + 1):
+        both = CameraTargets(np.array([1, 2], np.int64), np.array([[42.0, 50.0], [body_x, 50.0]]),
+                             np.array([8.0, 30.0]),
+                             np.array([[37.0, 42.0, 10.0, 8.0], [body_x - 5, 20.0, 10.0, 30.0]]),
+                             (100, 100))
+        cams = {"A": both, "B": at(7, 50)} if body_partner else {"A": both}
+        edges = [edge(("A", 2), ("B", 7))] if body_partner else []
+        state, r = step(state, cams, edges, frame, cfg)
+        assert meta_of(r, "A", 2, cams) != 1
+    cams = {"A": at(2, body_x), "B": at(7, 50)} if body_partner else {"A": at(2, body_x)}
+    edges = [edge(("A", 2), ("B", 7))] if body_partner else []
+    state, r = step(state, cams, edges, last + 1, cfg)
+    return state, r, cams
+
+
+def test_a_split_hands_the_old_meta_to_the_body_when_the_piece_dies() -> None:
+    """'three' seed 0 cam2, frame 149: the tracker followed a 6 px piece of a person for three
+    frames while the body got a new target and meta; when the piece died, nobody took its
+    meta back (it still had a target when the body's was made), and the body's new meta went
+    on into cam0. Now the young meta gives way and is reported merged into the old."""
+    _, r, cams = _split(last=3)
+    assert meta_of(r, "A", 2, cams) == 1
+    assert r.resumed == ((1, "A", 2),) and r.merged == ((2, 1),)
+
+
+@pytest.mark.parametrize(("last", "body_x", "cfg", "partner"), [
+    (12, 55.0, CFG, False),  # the piece lived 12 frames: the new meta is no longer young
+    (3, 75.0, CFG, False),  # the body 35 px = 1.17 heights from the piece's last feet
+    (3, 55.0, replace(CFG, handover_frames=0), False),  # rule off
+    (3, 55.0, CFG, True),  # the body's meta is linked into camera B: it is a person's own
+])
+def test_no_handover_when_the_new_meta_is_not_a_split_off_one(
+        last: int, body_x: float, cfg: MetaConfig, partner: bool) -> None:
+    _, r, cams = _split(last, body_x, cfg, partner)
+    assert meta_of(r, "A", 2, cams) != 1 and r.merged == ()
+
+
+def test_no_handover_to_a_meta_last_seen_in_that_camera_before_the_new_one() -> None:
+    """'doors' seed 6: a person left cam1 at frame 386 and cam0 at 497; a newcomer had come
+    into cam1 at 489 near where the first was last seen there. The first's meta was still
+    alive when the newcomer's was made, but not in cam1: no split, no handover."""
+    cams = {"A": at(1, 40), "B": at(7, 50)}
+    state, _ = step(meta_init(), cams, [edge(("A", 1), ("B", 7))], 0)
+    for frame in range(1, 15):
+        state, _ = step(state, {"A": cam(), "B": at(7, 50)}, [], frame)
+    for frame in range(15, 18):  # the newcomer in A, 5 px from meta 1's last feet there
+        state, r = step(state, {"A": at(2, 45), "B": at(7, 50)}, [], frame)
+    state, r = step(state, {"A": at(2, 45), "B": cam()}, [], 18)  # meta 1's B target leaves
+    assert meta_of(r, "A", 2, {"A": at(2, 45)}) == 2 and r.merged == ()

@@ -614,8 +614,9 @@ def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:
     link = Edge(("cam1", 5), ("cam2", 8), 1.0, 334, "fov")
     apart = Conflict(link, "cam0", ("cam0", 3), "cam1")
 
-    def meta(*conflicts: Conflict) -> SimpleNamespace:
-        return SimpleNamespace(conflicts=conflicts, created=(), merged=(), split=(), ended=())
+    def meta(*conflicts: Conflict, resumed: tuple = ()) -> SimpleNamespace:
+        return SimpleNamespace(conflicts=conflicts, created=(), merged=(), split=(), ended=(),
+                               resumed=resumed)
 
     for frame in (meta(apart), meta(apart), meta(), meta(apart)):
         log_meta(sink, frame)  # type: ignore[arg-type]
@@ -625,6 +626,8 @@ def test_a_rejected_link_is_told_once_while_it_stays_rejected() -> None:
     log_meta(sink, meta(same_camera))  # type: ignore[arg-type]
     assert told[-1] == ("link A t1 ↔ B t8 rejected: B t7 keeps the meta-target "
                         "(a meta-target holds one target of B)")
+    log_meta(sink, meta(resumed=((5, "cam2", 7),)))  # type: ignore[arg-type]
+    assert told[-1] == "cam2 t7 takes back m5, last seen near it there"
 
 
 def test_the_heights_layer_ends_where_the_size_model_puts_the_feet() -> None:

@@ -15,9 +15,11 @@ no previous meta get a new one, unless one of their targets is within ``reattach
 where a live meta with no target anywhere was last seen in that camera: then it resumes that
 meta (a person the front end lost and found again while no other camera saw it). Not where that
 meta's target was last seen touching the left, right or bottom border: that person walked out
-of the view, and who appears there next is someone walking in. Every present target always
-has a meta. A meta-target ends
-``meta_timeout_frames`` after its last target was seen; ids are never reused.
+of the view, and who appears there next is someone walking in. Likewise a lone target whose
+meta is only a few frames old gives it up for such a meta whose target vanished since (the
+tracker followed a piece of the person while the body got the new target). Every present
+target always has a meta. A meta-target ends ``meta_timeout_frames`` after its last target was
+seen; ids are never reused.
 
     state = meta_init()
     state, result = meta_step(state, MetaInputs(cameras, edges, frame), params.meta)
@@ -93,6 +95,8 @@ class MetaState:
     last_height: live meta -> camera -> height px of its target there when last seen
     walked_out: live meta -> cameras where its target, when last seen, touched the left, right
                 or bottom border (not the top: a far person cut by it has its feet in view)
+    born:       live meta -> frame it was made
+    seen_in:    live meta -> camera -> last frame one of its targets was present there
     """
 
     of_target: Mapping[Node, int] = field(default_factory=dict)
@@ -102,6 +106,8 @@ class MetaState:
     next_meta: int = 1
     last_height: Mapping[int, Mapping[str, float]] = field(default_factory=dict)
     walked_out: Mapping[int, frozenset[str]] = field(default_factory=dict)
+    born: Mapping[int, int] = field(default_factory=dict)
+    seen_in: Mapping[int, Mapping[str, int]] = field(default_factory=dict)
 
 
 @dataclass(frozen=True)
@@ -126,7 +132,8 @@ class MetaResult:
     accepted:   links that joined targets, strongest first;  conflicts: links rejected
     created:    metas new this frame;  merged: (absorbed meta, surviving meta)
     resumed:    (meta, camera, label): a new unlinked target took back a target-less live meta
-                by its last position in that camera (``reattach_heights``)
+                by its last position in that camera (``reattach_heights``), or a young one
+                gave way to it (``handover_frames``)
     split:      (meta, new meta) when a meta-target came apart and one part got a new label
     ended:      metas timed out this frame;  live: metas alive after this frame (some may
                 have no target now: not seen anywhere for less than the timeout)
@@ -251,20 +258,9 @@ def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], ta
     if cfg.reattach_heights <= 0:
         return []
     free = [m for m in state.last_seen if m not in taken]
-    options = []
-    for g, members in enumerate(groups):
-        if ids[g] or any(n in state.of_target for n in members):
-            continue
-        for n in members:
-            x, y, h = where[n]
-            for m in free:
-                last = state.last_feet.get(m, {}).get(n[0])
-                h_last = state.last_height.get(m, {}).get(n[0])
-                if last is None or h_last is None or n[0] in state.walked_out.get(m, ()):
-                    continue
-                d = float(np.hypot(x - last[0], y - last[1])) / max(h, h_last, 1.0)
-                if d <= cfg.reattach_heights:
-                    options.append((d, g, m, n))
+    options = [option for g, members in enumerate(groups)
+               if not ids[g] and not any(n in state.of_target for n in members)
+               for option in _near_last_feet(state, g, members, free, where, cfg)]
     resumed = []
     for _, g, m, n in sorted(options):
         if not ids[g] and m not in taken:
@@ -272,6 +268,60 @@ def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], ta
             taken.add(m)
             resumed.append((m, n[0], n[1]))
     return resumed
+
+
+def _near_last_feet(state: MetaState, g: int, members: Sequence[Node], metas: Sequence[int],
+                    where: Mapping[Node, tuple[float, float, float]], cfg: MetaConfig
+                    ) -> list[tuple[float, int, int, Node]]:
+    """(distance in heights, g, meta, member) for each of ``metas`` whose last feet in a
+    member's camera are within ``reattach_heights`` of it there, and that did not walk out
+    of that camera's view."""
+    options = []
+    for n in members:
+        x, y, h = where[n]
+        for m in metas:
+            last = state.last_feet.get(m, {}).get(n[0])
+            h_last = state.last_height.get(m, {}).get(n[0])
+            if last is None or h_last is None or n[0] in state.walked_out.get(m, ()):
+                continue
+            d = float(np.hypot(x - last[0], y - last[1])) / max(h, h_last, 1.0)
+            if d <= cfg.reattach_heights:
+                options.append((d, g, m, n))
+    return options
+
+
+def _handover(  # noqa: PLR0913, PLR0917 (as _resume, and the frame)
+    state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], taken: set[int],
+    where: Mapping[Node, tuple[float, float, float]], frame: int, cfg: MetaConfig,
+) -> list[tuple[int, str, int]]:
+    """A lone target (no links) whose meta was made at most ``handover_frames`` ago takes a
+    live meta that still had a target in its camera then and has none anywhere now, if that
+    target's last feet are near it (:func:`_near_last_feet`): one person split in one
+    camera, and the piece the old meta's target followed is gone (nearest first,
+    one-to-one). Not a meta last seen in this camera before the young one was made ('doors'
+    seed 6: a newcomer in cam1 took the meta of a person seen there 100 frames before, whose
+    cam0 target had just left). Changes ``ids`` and ``taken`` (the young meta is then merged
+    into the old one); returns (meta, camera, label)."""
+    if cfg.handover_frames <= 0 or cfg.reattach_heights <= 0:
+        return []
+    options = []
+    for g, members in enumerate(groups):
+        born = state.born.get(ids[g])
+        if len(members) != 1 or born is None or frame - born > cfg.handover_frames:
+            continue
+        camera = members[0][0]
+        gone = [m for m in state.last_seen
+                if m not in taken and state.seen_in.get(m, {}).get(camera, -1) >= born]
+        options += _near_last_feet(state, g, members, gone, where, cfg)
+    handed, done = [], set()
+    for _, g, m, n in sorted(options):
+        if g not in done and m not in taken:
+            done.add(g)
+            taken.discard(ids[g])
+            ids[g] = m
+            taken.add(m)
+            handed.append((m, n[0], n[1]))
+    return handed
 
 
 def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int,
@@ -287,6 +337,7 @@ def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int,
             ids[g] = meta
             taken.add(meta)
     resumed = _resume(state, groups, ids, taken, where, cfg)
+    resumed += _handover(state, groups, ids, taken, where, frame, cfg)
     next_meta, created = state.next_meta, []
     for g in range(len(groups)):
         if not ids[g]:
@@ -335,11 +386,14 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     last_feet = {m: dict(state.last_feet.get(m, {})) for m in last_seen}
     last_height = {m: dict(state.last_height.get(m, {})) for m in last_seen}
     walked_out = {m: set(state.walked_out.get(m, ())) for m in last_seen}
+    born = {m: f for m, f in state.born.items() if m in last_seen} | dict.fromkeys(created, frame)
+    seen_in = {m: dict(state.seen_in.get(m, {})) for m in last_seen}
     at_border = _at_exit_border(inputs.cameras)
     for n, m in of_target.items():
         last_seen[m] = frame
         last_feet.setdefault(m, {})[n[0]] = feet[n][:2]
         last_height.setdefault(m, {})[n[0]] = feet[n][2]
+        seen_in.setdefault(m, {})[n[0]] = frame
         out = walked_out.setdefault(m, set())
         if n in at_border:
             out.add(n[0])
@@ -351,6 +405,8 @@ def meta_step(state: MetaState, inputs: MetaInputs,
         last_feet.pop(m, None)
         last_height.pop(m, None)
         walked_out.pop(m, None)
+        born.pop(m, None)
+        seen_in.pop(m, None)
     ended = sorted(set(state.last_seen) - set(last_seen) - absorbed)
     metas = {
         name: np.array([of_target[(name, int(label))] for label in t.labels.tolist()], np.int64)
@@ -359,7 +415,8 @@ def meta_step(state: MetaState, inputs: MetaInputs,
     frozen_feet = {m: dict(v) for m, v in last_feet.items()}
     new_state = MetaState(of_target, since, last_seen, frozen_feet, next_meta,
                           {m: dict(v) for m, v in last_height.items()},
-                          {m: frozenset(v) for m, v in walked_out.items() if v})
+                          {m: frozenset(v) for m, v in walked_out.items() if v}, born,
+                          seen_in)
     result = MetaResult(
         frame=frame,
         metas=metas,

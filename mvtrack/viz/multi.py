@@ -70,6 +70,8 @@ def log_meta(sink: RerunSink, meta: Any) -> None:
                    rr.TextLogLevel.DEBUG)
     for gone, kept in meta.merged:
         sink.event(f"meta-targets merged: m{gone} joins m{kept}")
+    for resumed, camera, label in meta.resumed:
+        sink.event(f"{camera} t{label} takes back m{resumed}, last seen near it there")
     for old, new in meta.split:
         sink.event(f"meta-target m{old} split: part becomes m{new}", rr.TextLogLevel.WARN)
     if meta.ended:
