@@ -261,13 +261,23 @@ def _resume(state: MetaState, groups: list[tuple[Node, ...]], ids: list[int], ta
     options = [option for g, members in enumerate(groups)
                if not ids[g] and not any(n in state.of_target for n in members)
                for option in _near_last_feet(state, g, members, free, where, cfg)]
-    resumed = []
+    return _take(options, ids, taken)
+
+
+def _take(options: list[tuple[float, int, int, Node]], ids: list[int], taken: set[int]
+          ) -> list[tuple[int, str, int]]:
+    """Give each group its nearest option's meta ((distance, g, meta, member), nearest first,
+    one-to-one), releasing the meta it had (0: none). Fills ``ids`` and ``taken``; returns
+    (meta, camera, label) of those given."""
+    given, done = [], set()
     for _, g, m, n in sorted(options):
-        if not ids[g] and m not in taken:
+        if g not in done and m not in taken:
+            done.add(g)
+            taken.discard(ids[g])
             ids[g] = m
             taken.add(m)
-            resumed.append((m, n[0], n[1]))
-    return resumed
+            given.append((m, n[0], n[1]))
+    return given
 
 
 def _near_last_feet(state: MetaState, g: int, members: Sequence[Node], metas: Sequence[int],
@@ -313,15 +323,7 @@ def _handover(  # noqa: PLR0913, PLR0917 (as _resume, and the frame)
         gone = [m for m in state.last_seen
                 if m not in taken and state.seen_in.get(m, {}).get(camera, -1) >= born]
         options += _near_last_feet(state, g, members, gone, where, cfg)
-    handed, done = [], set()
-    for _, g, m, n in sorted(options):
-        if g not in done and m not in taken:
-            done.add(g)
-            taken.discard(ids[g])
-            ids[g] = m
-            taken.add(m)
-            handed.append((m, n[0], n[1]))
-    return handed
+    return _take(options, ids, taken)
 
 
 def _name(state: MetaState, groups: list[tuple[Node, ...]], frame: int,
