@@ -209,6 +209,8 @@ class BackgroundState:
     mvo_legs:    (M, 2) float64, read-only: per last-frame MVO (label - 1), its legs score
                  (above 0 when its legs were mostly all there while it was seen below the top
                  border, :func:`_regrow_legs`) and its bottom row
+    mvo_merged:  (M,) bool, read-only: per last-frame MVO (label - 1), whether it is two or
+                 more people's blobs run together (:func:`_merged_blobs`)
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
@@ -225,6 +227,7 @@ class BackgroundState:
     mvo_prev: np.ndarray | None = None
     mvo_ages: np.ndarray = field(default_factory=lambda: np.zeros(0, np.int64))
     mvo_legs: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))
+    mvo_merged: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
     shared: tuple[tuple[np.ndarray, np.ndarray] | None, ...] = ()
     sizes: SizeModel = field(default_factory=SizeModel)
     prior_sizes: SizeModel | None = None
@@ -628,6 +631,27 @@ def _hold_ages(overlaps: np.ndarray, mvo_ages: np.ndarray, k: int) -> np.ndarray
     np.minimum.at(least, overlaps[:, 0] - 1, mvo_ages[overlaps[:, 1] - 1])
     least[least == np.iinfo(np.int64).max] = 0
     return least
+
+
+def _merged_blobs(overlaps: np.ndarray, mvo_merged: np.ndarray, blobs: BlobTable,
+                  sizes: SizeModel, tol: float) -> np.ndarray:
+    """(K,) bool: per MVO blob, whether it is people's blobs run together: it overlaps two
+    or more of last frame's MVOs, or it is the only MVO that overlaps one that was and is
+    still taller than one person (by more than ``tol`` of the height ``sizes`` gives at its
+    bottom row): until the group parts, its blob is still theirs. ``overlaps`` from
+    :func:`_prev_overlaps`; ``mvo_merged``: :attr:`BackgroundState.mvo_merged`."""
+    k = len(blobs.label)
+    overlaps = overlaps[blobs.is_mvo[overlaps[:, 0] - 1]]
+    blob, prev = overlaps[:, 0] - 1, overlaps[:, 1] - 1
+    merged = np.bincount(blob, minlength=k)[:k] >= 2
+    person = sizes.height_at(blobs.box_xywh[:, 1] + blobs.box_xywh[:, 3])
+    if len(mvo_merged) and person is not None:
+        with np.errstate(invalid="ignore"):  # NaN (no height there): not taller
+            tall = blobs.box_xywh[:, 3] > (1.0 + tol) * person
+        alone = np.bincount(prev, minlength=len(mvo_merged)) == 1
+        kept = mvo_merged[prev] & alone[prev] & tall[blob]
+        merged[blob[kept]] = True
+    return merged
 
 
 def _legs_before(overlaps: np.ndarray, mvo_legs: np.ndarray, k: int) -> np.ndarray:
@@ -1138,16 +1162,22 @@ def _motion(
 
 
 def _learn_sizes(sizes: SizeModel, blobs: BlobTable, shape: tuple[int, ...],
-                 cfg: BackgroundConfig, frame_index: int) -> SizeModel:
+                 cfg: BackgroundConfig, frame_index: int,
+                 merged: np.ndarray | None = None) -> SizeModel:
     """The model with this frame's person-shaped MVOs added, refitted every
-    ``size_refit_frames`` frames."""
+    ``size_refit_frames`` frames; none of the blobs ``merged`` (K,) bool marks
+    (:func:`_merged_blobs`): two people one behind the other are one blob shaped like a
+    person and taller than one."""
     if cfg.size_area_frac <= 0:
         return sizes
     # Moving, person-shaped blobs below T_area count too: where people are smaller than T_area
     # none would ever become an MVO to learn from.
     person = blobs.strong_ok & blobs.edge_ok & blobs.moving_ok & (
         blobs.area_px >= cfg.size_min_area_px)
-    box = blobs.box_xywh[blobs.is_mvo | person]
+    take = blobs.is_mvo | person
+    if merged is not None:
+        take &= ~merged
+    box = blobs.box_xywh[take]
     inside = _inside(box, shape)
     aspect = box[:, 3] / np.maximum(box[:, 2], 1.0)
     keep = inside & (aspect >= cfg.size_min_aspect) & (aspect <= cfg.size_max_aspect)
@@ -1280,6 +1310,7 @@ def background_step(
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     legs_before = _legs_before(overlaps, state.mvo_legs, k)[blobs.is_mvo]
+    merged = _merged_blobs(overlaps, state.mvo_merged, blobs, state.sizes, cfg.size_whole_tol)
     grown, legs, reach = _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, legs_before,
                                       cfg=cfg)
     if grown:
@@ -1314,8 +1345,10 @@ def background_step(
         mvo_prev=_readonly(mvo_labels),
         mvo_ages=_readonly(age[blobs.is_mvo]),  # in MVO label order
         mvo_legs=_readonly(np.c_[legs, reach]),
+        mvo_merged=_readonly(merged[blobs.is_mvo]),
         shared=shared,
-        sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index),
+        sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index,
+                           merged if cfg.size_skip_merged else None),
         prior_sizes=state.prior_sizes,
     )
     return new_state, result
