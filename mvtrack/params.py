@@ -984,6 +984,16 @@ class MarkerConfig(_Checked):
     # (tracks_online.csv) 0.786 -> 0.621 (three pairs' H accepted at frame 175 and dropped;
     # at 100 a fourth pair confirmed it at 225), 'three' s7 -0.025, s5 +0.026; seeds 3-11
     # online mean 0.7981 -> 0.7959.
+    # 'pillar' s8 with a front-end change (size samples without small grouped pieces, not
+    # landed): a hypothesis with one wrong pair of three (217 px p90 off the true H) timed
+    # out unrefuted at frame 300 and was accepted in the round whose search found the right
+    # pairing; verification never dropped it (IDF1 0.861, handed-on H p90 46.7 px); with the
+    # rule 0.949, 5.5 px. `mvtrack sweep` seeds 0-11 on the landed code: no figure changes
+    # but 'pillar' s8's first H, frame 310 -> 325.
+    comotion_drop_contradicted: bool = param(
+        True, "bootstrap: an unrefuted hypothesis is not accepted when the round's search "
+        "pairs one of its targets with another (it is dropped; the search's is held)",
+    )
     comotion_confirm_frames: int = param(
         50, "bootstrap: held-out check: a hypothesis neither confirmed nor refuted within this "
         "many frames is accepted or dropped (comotion_accept_unrefuted)", 1, 1000000,

@@ -575,3 +575,34 @@ def test_one_target_the_other_camera_never_sees_does_not_drop_h(min_targets: int
     assert bool(state.homography) == kept
     if not kept:
         assert "(misses from at least 1 people)" in state.homography.reason
+
+
+@pytest.mark.parametrize("drop", [True, False])
+def test_an_unrefuted_hypothesis_the_search_contradicts_is_not_accepted(drop: bool) -> None:
+    """A hypothesis held since frame 0 pairs A's walker 4 with B's target 199, gone since (no
+    candidate of its own to refute it), under an H 32 px off the true one (too far for the
+    walker's candidates to confirm it). Walkers 5 and 6 join 4 at frame 61; in the round of
+    frame 75 the held one has timed out unrefuted and the search finds the true pairing of
+    the three, not strong enough to take at once. That search pairs walker 4 with 104: the
+    held one is dropped, the search's held, and no marker comes from the held one
+    (generated 'pillar' s8 with a front-end change: a hypothesis with one wrong pair of
+    three, 217 px p90 off, was accepted at frame 300 in the round whose search had found the
+    right one). Without ``comotion_drop_contradicted`` it is accepted there."""
+    cfg = PairConfigs.from_params(load_params(
+        None, [f"markers.comotion_drop_contradicted={str(drop).lower()}"]))
+    state = pair_init(("a", "b"), ((640, 480), (640, 480)))
+    held = Comotion(np.array([[1.0, 0, 230], [0, 1, 0], [0, 0, 1]]), ((4, 199),), (), since=0)
+    state = replace(state, hypotheses=(held,))
+    rounds = {}
+    for f in range(1, 76):
+        a, b = _walkers_seen_twice(f, [4, 5, 6] if f > 60 else [4])
+        state, res = pair_step(state, a, b, cfg, f)
+        if res.bootstrap is not None:
+            rounds[f] = res.bootstrap
+    true_links = ((4, 104), (5, 105), (6, 106))
+    assert rounds[75].found == true_links
+    if drop:
+        assert rounds[75].accepted is None and state.hypotheses[-1].links == true_links
+        assert not state.markers.cells
+    else:
+        assert rounds[75].accepted == held.links

@@ -536,7 +536,13 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
     (the new search's hypothesis is held). A hypothesis that only timed out is weaker
     evidence than one that four target pairs follow now: generated 'pair' seed 0 held a swap
     of its first two people from frame 50, which timed out in the round that first found the
-    true pairing of four. Returns (accepted or None, hypotheses still held, the round)."""
+    true pairing of four. With ``comotion_drop_contradicted``, one that timed out is not
+    accepted when the round's search pairs one of its targets with another target
+    (:func:`_contradicts`): the search weighed all the candidates, its own among them, and
+    chose otherwise (generated 'pillar' s8 with a front-end change: a timed-out hypothesis
+    with one wrong pair of three, 217 px p90 off the true H, accepted at frame 300 in the
+    round whose search found the right pairing). Returns (accepted or None, hypotheses still
+    held, the round)."""
     mcfg = cfg.markers
     held: list[Comotion] = []
     unrefuted: list[Comotion] = []
@@ -559,6 +565,8 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
         rng = np.random.default_rng([cfg.homography.ransac_seed, frame, 1])
         found = comotion_search(pool, mcfg, solve_homography, transfer_errors, rng)
         strong = found is not None and _strong(found, mcfg)
+        if found is not None and mcfg.comotion_drop_contradicted:
+            unrefuted = [h for h in unrefuted if not _contradicts(h.links, found.links)]
         if unrefuted and not strong:  # rivals from the same people: more support pairs better
             accepted = max(unrefuted, key=lambda h: len(h.markers))
         elif found is None or mcfg.comotion_confirm_pairs == 0 or strong:
@@ -568,6 +576,13 @@ def _review(pool: Candidates, hypotheses: tuple[Comotion, ...], cfg: PairConfigs
     return accepted, held, replace(
         round_, verdicts=tuple(verdicts), found=None if found is None else found.links,
         accepted=None if accepted is None else accepted.links)
+
+
+def _contradicts(links: Links, other: Links) -> bool:
+    """Whether a target of one set of (A label, B label) links has another partner in the
+    other set."""
+    a_to_b, b_to_a = dict(other), {b: a for a, b in other}
+    return any(a_to_b.get(a, b) != b or b_to_a.get(b, a) != a for a, b in links)
 
 
 def _strong(found: Comotion, cfg: MarkerConfig) -> bool:
