@@ -30,7 +30,9 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    (``fragment_max_height_frac``; needs ``size_model``). A part cut from a target by a group cut
    (rule 0) that shares one merged blob with it, the blob showing one head, for
    ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false. So does a
-   merged target whose share of the blob has been a leg part of the blob for
+   split child (rule 4, ``split_rejoin``) that is one merged blob with the target it split from
+   from the frame after the split on (a leg that came apart for a frame; one still apart then
+   walked away, and is forgotten as a part). So does a merged target whose share of the blob has been a leg part of the blob for
    ``part_merge_frames`` frames in a row (born on a leg or a shadow patch, so its template is no
    leg of its person's and the merge did not reunite it).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
@@ -119,7 +121,9 @@ class TargetTrack:
     merged:                bool, whether it was part of a merge in the last frame
     external_id:           int, the detection's own track id, -1 when tracked by the rules
     cut_from:              int, the label of the target whose blob a group cut gave it its
-                           part (0: none)
+                           part, or (``split_rejoin``) that it split from (0: none)
+    split_child:           bool, cut_from is the target it split from: it is forgotten the
+                           first frame the two are not one merged blob
     rejoined:              int, frames in a row it has shared one merged blob with cut_from
     as_part:               int, frames in a row its share of a merged blob was a leg part of
                            the blob (:func:`_legs_of`)
@@ -141,6 +145,7 @@ class TargetTrack:
     merged: bool = False
     external_id: int = -1
     cut_from: int = 0
+    split_child: bool = False
     rejoined: int = 0
     as_part: int = 0
     hidden: int = 0
@@ -519,6 +524,7 @@ class _Frame:
     reunions: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
     extra_labels: list[tuple[int, int]] = field(default_factory=list)  # (blob index, label)
     cut_from: dict[int, int] = field(default_factory=dict)  # new group part -> label cut from
+    split_children: set[int] = field(default_factory=set)  # of cut_from: split children
     two_heads: set[int] = field(default_factory=set)  # merged with a group sibling, two heads
     hidden: list[int] = field(default_factory=list)  # labels left out of a division as hidden
     groups: list[tuple[int, tuple[int, ...]]] = field(default_factory=list)
@@ -1043,6 +1049,9 @@ def track_masks(
         else:
             label, work.next_label = work.next_label, work.next_label + 1
             work.new_labels[b] = label
+            if cfg.split_rejoin and plan.split_parent[b] >= 0:
+                work.cut_from[label] = int(rows[plan.split_parent[b]])
+                work.split_children.add(label)
         work.label_image[window][crop] = label
         if whole < 0:
             work.blob_of[label] = int(blob_id)
@@ -1054,12 +1063,15 @@ def _count_rejoined(track: TargetTrack, work: _Frame) -> TargetTrack:
     at 0; one merged into the blob of the target it was cut from, the blob showing one head,
     counts one more frame; any other frame resets the count."""
     if track.label in work.cut_from:
-        return replace(track, cut_from=work.cut_from[track.label], rejoined=0)
+        return replace(track, cut_from=work.cut_from[track.label], rejoined=0,
+                       split_child=track.label in work.split_children)
     if not track.cut_from:
         return track
     together = (track.label in work.merged and track.cut_from in work.merged
                 and work.blob_of.get(track.label) == work.blob_of.get(track.cut_from)
                 and track.label not in work.two_heads)
+    if track.split_child and not together:  # a person who walked apart, not a piece
+        return replace(track, cut_from=0, split_child=False, rejoined=0)
     return replace(track, rejoined=track.rejoined + 1 if together else 0)
 
 
