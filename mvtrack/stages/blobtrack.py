@@ -32,9 +32,10 @@ overlaps when it shares at least ``min_overlap_px`` pixels (boxes: IoU above ``m
    ``group_rejoin_frames`` frames in a row reunites with it too: the cut was false. So does a
    split child (rule 4, ``split_rejoin``) that is one merged blob with the target it split from
    from the frame after the split on (a leg that came apart for a frame; one still apart then
-   walked away, and is forgotten as a part). So does a merged target whose share of the blob has been a leg part of the blob for
-   ``part_merge_frames`` frames in a row (born on a leg or a shadow patch, so its template is no
-   leg of its person's and the merge did not reunite it).
+   walked away, and is forgotten as a part). So does a merged target whose share of the blob
+   has been a leg part of the blob for ``part_merge_frames`` frames in a row (born on a leg or
+   a shadow patch, so its template is no leg of its person's and the merge did not reunite
+   it).
 4. A blob that is nobody's continuation gets a new label: a *split* child of the previous target
    it overlaps most if it overlaps any (combination case: blob 2 overlaps targets 1 and 2, which
    both continue in blob 1 -> blob 2 is a split child of whichever it shares more pixels with),
