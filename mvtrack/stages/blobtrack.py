@@ -1060,9 +1060,11 @@ def track_masks(
 
 
 def _count_rejoined(track: TargetTrack, work: _Frame) -> TargetTrack:
-    """The track with its group-cut bookkeeping for this frame: a part cut this frame starts
-    at 0; one merged into the blob of the target it was cut from, the blob showing one head,
-    counts one more frame; any other frame resets the count."""
+    """The track with its group-cut bookkeeping for this frame: a part cut (or split) off
+    this frame starts at 0; one merged into the blob of the target it was cut from, the blob
+    showing one head, counts one more frame; any other frame resets the count, and makes a
+    split child (rule 4, ``split_rejoin``) a target of its own for good: it walked away from
+    its parent."""
     if track.label in work.cut_from:
         return replace(track, cut_from=work.cut_from[track.label], rejoined=0,
                        split_child=track.label in work.split_children)
