@@ -210,7 +210,8 @@ class BackgroundState:
                  (above 0 when its legs were mostly all there while it was seen below the top
                  border, :func:`_regrow_legs`) and its bottom row
     mvo_merged:  (M,) bool, read-only: per last-frame MVO (label - 1), whether it is two or
-                 more people's blobs run together (:func:`_merged_blobs`)
+                 more people's blobs run together (:func:`_merged_blobs`; all False with
+                 ``size_skip_merged`` off)
     shared:      (m,) per one of the last m steps, oldest first: the read-only pair (ranks
                  k-1 and k of that step's n-1 newest FIFO samples, k = (n-1)//2) its phase's
                  next median reuses, or None; () means all None (n < 3 never stores any)
@@ -1310,7 +1311,8 @@ def background_step(
     mvo_labels, mvo_index = _mvo_labels(pixels, blobs, candidate.shape)
     mvo = mvo_labels > 0
     legs_before = _legs_before(overlaps, state.mvo_legs, k)[blobs.is_mvo]
-    merged = _merged_blobs(overlaps, state.mvo_merged, blobs, state.sizes, cfg.size_whole_tol)
+    merged = (_merged_blobs(overlaps, state.mvo_merged, blobs, state.sizes, cfg.size_whole_tol)
+              if cfg.size_skip_merged else np.zeros(k, bool))
     grown, legs, reach = _regrow_legs(mvo_labels, shadow, dist8, blobs, state.sizes, legs_before,
                                       cfg=cfg)
     if grown:
@@ -1347,8 +1349,7 @@ def background_step(
         mvo_legs=_readonly(np.c_[legs, reach]),
         mvo_merged=_readonly(merged[blobs.is_mvo]),
         shared=shared,
-        sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index,
-                           merged if cfg.size_skip_merged else None),
+        sizes=_learn_sizes(state.sizes, blobs, candidate.shape, cfg, state.frame_index, merged),
         prior_sizes=state.prior_sizes,
     )
     return new_state, result
