@@ -193,3 +193,28 @@ def test_mask_scores() -> None:
     assert s["shadow_detection"] == pytest.approx(3 / 6)
     assert s["shadow_discrimination"] == pytest.approx(3 / 4)
     assert s["shadow_kept_out"] == pytest.approx(5 / 6)
+
+
+def test_foot_error_along_motion_tells_feet_that_trail_the_walker() -> None:
+    """Feet one frame behind a walker (1.5 px per frame, rightwards, then back leftwards) are
+    1.5 px behind along the motion, whichever way it goes; a person standing still does not
+    count; feet ahead count positive."""
+    f = np.arange(40)
+    x = np.where(f < 20, 100 + 1.5 * f, 130 - 1.5 * (f - 20))
+    walker = np.c_[x, np.full(40, 80.0)]
+    still = np.tile([[200.0, 80.0]], (40, 1))
+    truth = FrameRows.of(np.r_[f, f], np.r_[np.ones(40), np.full(40, 2)], np.r_[walker, still],
+                         heights=np.full(80, 40.0))
+    lag = np.r_[walker[:1], walker[:-1]]  # each frame's feet where the walker was before
+    pred = FrameRows.of(np.r_[f, f], np.r_[np.full(40, 7), np.full(40, 8)],
+                        np.r_[lag, still + [0.0, 3.0]])
+    det = detection_scores(pred, truth)
+    # frame 20 (it turns: back where it was 2 frames before 2 frames later) and the first and
+    # last two (not in the truth 2 frames before or after) have no direction of motion
+    assert det["foot_error_along_motion_matches"] == 40 - 1 - 4
+    assert det["foot_error_px_along_motion_median"] == pytest.approx(-1.5)
+    ahead = FrameRows.of(pred.frames, pred.ids, np.r_[walker + [[1.0, 0.0]], still])
+    assert detection_scores(ahead, truth)["foot_error_px_along_motion_median"] == pytest.approx(
+        1.0)
+    assert np.isnan(detection_scores(FrameRows.of(f, np.ones(40), still), truth)[
+        "foot_error_px_along_motion_median"])
