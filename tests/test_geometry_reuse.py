@@ -62,13 +62,14 @@ def test_geometry_from_other_frames_labels_people_from_the_first_frame(runs: dic
 
 def test_the_geometry_handed_on_is_the_h_fitted_again_from_the_whole_run_labels(
         runs: dict) -> None:
-    """Frames 600-1199: the online H ends 1.45 / 2.15 px off the true one (median / p90),
-    the H fitted again from the whole-run labels (156 markers) 1.01 / 1.60 px; it is handed
-    on, and the warm run starts from it."""
+    """Frames 600-1199: the online H ends 1.61 / 2.21 px off the true one (median / p90),
+    the H fitted again from the whole-run labels 1.20 / 2.11 px (1.48 / 2.23 and 1.02 / 1.60
+    with the thesis's feet, `feet.anchor = "corners"`); it is handed on, and the warm run
+    starts from it."""
     (m,) = runs["learn"]["pairs"]
     online, refit = m["transfer_error_px"], m["refit_transfer_error_px"]
     assert m["refit_h_used"] and refit["points"] == online["points"] > 1000
-    assert refit["median"] <= 1.25 and refit["p90"] <= 1.9, refit
+    assert refit["median"] <= 1.3 and refit["p90"] <= 2.3, refit
     assert refit["median"] < online["median"] and refit["p90"] < online["p90"], (refit, online)
     (pair,) = json.loads(runs["learned"].read_text())
     assert np.allclose(read_pairs(runs["learned"])[0].H_b_from_a, pair["H_refit"]["H"])

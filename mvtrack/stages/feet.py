@@ -4,7 +4,8 @@ Two methods, both always available:
 
 - :func:`feet_pca` (the thesis's): PCA of the mask's pixel coordinates gives the height axis;
   the mask is rotated upright, its upright bounding box taken, and the outline points closest to
-  the box's two bottom corners found; the feet are their midpoint, rotated back to the image.
+  the box's two bottom corners found; the feet are their midpoint (``anchor = "corners"``), or
+  by default the point on their mean row under the mask's centroid, rotated back to the image.
   The height is the distance from the feet to the top of the upright box.
 - :func:`feet_bbox` (Khan & Shah's baseline): the bottom centre of the axis-aligned box.
 
@@ -103,7 +104,9 @@ def _height_axis(cov: np.ndarray, min_elongation: float) -> np.ndarray:
 def feet_pca(
     mask: np.ndarray, offset_xy: tuple[float, float] = (0.0, 0.0), cfg: FeetConfig | None = None
 ) -> Feet:
-    """Thesis feet: PCA upright box, outline points nearest its bottom corners (SPEC §3).
+    """Thesis feet: PCA upright box, outline points nearest its bottom corners (SPEC §3); the
+    feet midway between those (``cfg.anchor == "corners"``) or on their mean row under the
+    centroid (``"centroid"``: a walker's swing foot, lifted behind, pulls the midpoint back).
 
     mask:       (H, W) bool, the target's pixels (the whole frame, or a crop)
     offset_xy:  image coordinates [x, y] of the crop's pixel (0, 0)
@@ -146,6 +149,8 @@ def feet_pca(
     picks_uv = np.array(picks)
     # Outline points are boundary pixel centres; the silhouette ends half a pixel further down.
     feet_uv = picks_uv.mean(axis=0) + np.array([0.0, _HALF_PX])
+    if cfg.anchor == "centroid":  # u = 0: under the centroid (the origin of u, v)
+        feet_uv[0] = 0.0
 
     def to_image(uv: np.ndarray) -> np.ndarray:
         uv = np.atleast_2d(uv)
