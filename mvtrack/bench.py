@@ -24,7 +24,7 @@ from mvtrack.stages.background import (
     training_offsets,
 )
 from mvtrack.stages.blobtrack import track_masks, tracker_init
-from mvtrack.stages.feet import HeightMemory, complete_step, target_feet_records
+from mvtrack.stages.feet import FeetState, feet_step
 
 __all__ = ["FrontEndBench", "bench_frontend", "mog2_baseline", "run_frontend"]
 
@@ -50,14 +50,13 @@ def run_frontend(frames: Sequence[np.ndarray], params: Params, bg: BackgroundSta
                  full: bool = True) -> int:
     """mvtrack's front end from the trained state ``bg``: background subtraction, and with
     ``full`` the tracker and feet."""
-    tracker, heights = tracker_init(), HeightMemory()
+    tracker, feet_state = tracker_init(), FeetState()
     targets = 0
     for frame in frames:
         bg, res = background_step(bg, frame, params.background)
         if full:
             tracker, tracks = track_masks(tracker, res.mvo_labels, frame, params.tracker, bg.sizes)
-            heights, feet = complete_step(heights, target_feet_records(tracks, params.feet),
-                                          tracks, params.feet, bg.sizes)
+            feet_state, feet = feet_step(feet_state, tracks, params.feet, bg.sizes)
             targets += len(feet)
         else:
             targets += len(res.blobs)

@@ -47,10 +47,9 @@ from mvtrack.stages.blobtrack import (
 from mvtrack.stages.cues import Cue, CueInputs, camera_cues
 from mvtrack.stages.feet import (
     Feet,
-    HeightMemory,
-    complete_step,
+    FeetState,
+    feet_step,
     smooth_feet,
-    target_feet_records,
 )
 from mvtrack.stages.fov import border_line
 from mvtrack.stages.homography import HomographyEstimate
@@ -140,7 +139,7 @@ class FrameResult:
 class _CameraState:
     background: BackgroundState | None
     tracker: TrackerState
-    heights: HeightMemory = field(default_factory=HeightMemory)
+    feet: FeetState = field(default_factory=FeetState)
 
 
 def _edges(matches: Mapping[tuple[str, str], MatchResult]) -> list[Edge]:
@@ -300,10 +299,9 @@ class Pipeline:
                 tracker, tracks = track_boxes(state.tracker, d.boxes_xywh, d.tracks, p.tracker,
                                               feet_xy=d.feet)
         with timer("feet"):
-            heights, feet = complete_step(state.heights, target_feet_records(tracks, p.feet),
-                                          tracks, p.feet,
-                                          None if bg_state is None else bg_state.sizes)
-        self._states[cam.name] = _CameraState(bg_state, tracker, heights)
+            feet_state, feet = feet_step(state.feet, tracks, p.feet,
+                                         None if bg_state is None else bg_state.sizes)
+        self._states[cam.name] = _CameraState(bg_state, tracker, feet_state)
         targets = CameraTargets(
             labels=tracks.labels,
             feet=np.array([f.point for f in feet]).reshape(-1, 2),

@@ -30,14 +30,17 @@ from mvtrack.params import FeetConfig
 from mvtrack.stages.background import SizeModel, feet_row
 from mvtrack.stages.blobtrack import TrackResult
 from mvtrack.stages.targets import touching_sides
+from mvtrack.stages.vertical import Verticals, up_at, vertical_step
 
 __all__ = [
     "Feet",
+    "FeetState",
     "HeightMemory",
     "complete_step",
     "feet_bbox",
     "feet_from_box",
     "feet_pca",
+    "feet_step",
     "target_feet",
     "target_feet_records",
 ]
@@ -102,7 +105,8 @@ def _height_axis(cov: np.ndarray, min_elongation: float) -> np.ndarray:
 
 
 def feet_pca(
-    mask: np.ndarray, offset_xy: tuple[float, float] = (0.0, 0.0), cfg: FeetConfig | None = None
+    mask: np.ndarray, offset_xy: tuple[float, float] = (0.0, 0.0), cfg: FeetConfig | None = None,
+    vertical_vp: np.ndarray | None = None,
 ) -> Feet:
     """Thesis feet: PCA upright box, outline points nearest its bottom corners (SPEC §3); the
     feet midway between those (``cfg.anchor == "corners"``) or on their mean row under the
@@ -110,6 +114,8 @@ def feet_pca(
 
     mask:       (H, W) bool, the target's pixels (the whole frame, or a crop)
     offset_xy:  image coordinates [x, y] of the crop's pixel (0, 0)
+    vertical_vp: the camera's vertical vanishing point (:mod:`~mvtrack.stages.vertical`): the
+                height axis is the vertical through the centroid, not the mask's own PCA axis
     Returns :class:`Feet` in image pixels. Raises ValueError on an empty mask.
 
     The pixels' mean and covariance come from the mask's image moments, and the upright box
@@ -127,7 +133,9 @@ def feet_pca(
     if n == 0:
         raise ValueError("feet: the mask is empty")
     centre = np.array([m["m10"] / n, m["m01"] / n]) + np.asarray(offset_xy, np.float64)
-    if n < 2:
+    if vertical_vp is not None:
+        up = up_at(vertical_vp, centre)[0]
+    elif n < 2:
         up = _IMAGE_UP.copy()
     else:  # np.cov of the pixel coordinates
         up = _height_axis(np.array([[m["mu20"], m["mu11"]], [m["mu11"], m["mu02"]]]) / (n - 1),
@@ -203,11 +211,13 @@ def feet_from_box(box_xywh: np.ndarray, foot_xy: np.ndarray | None = None) -> Fe
     return _box_feet(box, point, "box")
 
 
-def target_feet_records(result: TrackResult, cfg: FeetConfig) -> tuple[Feet, ...]:
+def target_feet_records(result: TrackResult, cfg: FeetConfig,
+                        vertical_vp: np.ndarray | None = None) -> tuple[Feet, ...]:
     """:class:`Feet` of every target of ``result`` (same order as ``result.labels``).
 
-    Mask targets use ``cfg.method`` on their pixels in ``result.label_image``; box targets (no
-    label image) use :func:`feet_from_box` with the detection's foot point when it has one.
+    Mask targets use ``cfg.method`` on their pixels in ``result.label_image`` (with
+    ``vertical_vp``, :func:`feet_pca` takes its height axes from it); box targets (no label
+    image) use :func:`feet_from_box` with the detection's foot point when it has one.
     """
     records: list[Feet] = []
     for i, label in enumerate(result.labels):
@@ -220,7 +230,7 @@ def target_feet_records(result: TrackResult, cfg: FeetConfig) -> tuple[Feet, ...
         crop = result.label_image[y0:y1, x0:x1] == label
         offset = (float(x0), float(y0))
         if cfg.method == "pca":
-            records.append(feet_pca(crop, offset, cfg))
+            records.append(feet_pca(crop, offset, cfg, vertical_vp))
         else:
             records.append(feet_bbox(crop, offset))
     return tuple(records)
@@ -313,6 +323,28 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
         if heights:
             whole[label], since[label] = heights, age
     return HeightMemory(whole, since, top), tuple(out)
+
+
+@dataclass(frozen=True)
+class FeetState:
+    """One camera's memory for its targets' feet: the heights they were seen whole
+    (:func:`complete_step`) and the vertical learned from them (:func:`vertical_step`)."""
+
+    heights: HeightMemory = field(default_factory=HeightMemory)
+    verticals: Verticals = field(default_factory=Verticals)
+
+
+def feet_step(state: FeetState, result: TrackResult, cfg: FeetConfig,
+              sizes: SizeModel | None = None) -> tuple[FeetState, tuple[Feet, ...]]:
+    """Feet of every target of one frame (``result``'s order), completed where a target lost
+    its lower body; with ``cfg.up == "learned"`` their height axes the camera's verticals as
+    learned from the frames before, which this frame's axes then join."""
+    learned = cfg.method == "pca" and cfg.up == "learned"
+    vp = state.verticals.vp if learned else None
+    heights, feet = complete_step(state.heights, target_feet_records(result, cfg, vp), result,
+                                  cfg, sizes)
+    verticals = vertical_step(state.verticals, result, cfg) if learned else state.verticals
+    return FeetState(heights, verticals), feet
 
 
 def _line_height(sizes: SizeModel | None, top: float) -> float:
