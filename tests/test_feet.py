@@ -247,13 +247,12 @@ def test_feet_inside_the_mask_box(pixels, dilate) -> None:
     lo = np.array([xs.min(), ys.min()]) - 0.5
     hi = np.array([xs.max(), ys.max()]) + 0.5
     corners = feet_pca(m, cfg=FeetConfig(anchor="corners"))
+    for f in (corners, feet_bbox(m)):
+        assert np.all(f.point >= lo - 1e-9) and np.all(f.point <= hi + 1e-9)
     for f in (feet_pca(m), corners, feet_bbox(m)):
         tl, tr, _, bl = f.box_corners_xy
         for side in (tr - tl, bl - tl):
             assert -1e-9 <= (f.point - tl) @ side <= side @ side + 1e-9
-    for f in (corners, feet_bbox(m)):
-        assert np.all(f.point >= lo - 1e-9) and np.all(f.point <= hi + 1e-9)
-    for f in (feet_pca(m), corners, feet_bbox(m)):
         assert 0 < f.height_px <= math.hypot(*(hi - lo)) + 1e-9
         assert abs(np.linalg.norm(f.up) - 1) < 1e-9
         assert f.up @ np.array([0.0, -1.0]) >= math.cos(math.radians(45)) - 1e-9

@@ -337,8 +337,8 @@ class FeetState:
 def feet_step(state: FeetState, result: TrackResult, cfg: FeetConfig,
               sizes: SizeModel | None = None) -> tuple[FeetState, tuple[Feet, ...]]:
     """Feet of every target of one frame (``result``'s order), completed where a target lost
-    its lower body; with ``cfg.up == "learned"`` their height axes the camera's verticals as
-    learned from the frames before, which this frame's axes then join."""
+    its lower body. With ``cfg.up == "learned"`` their height axes are the camera's verticals
+    as learned from the frames before; this frame's axes are then added to what it learned."""
     learned = cfg.method == "pca" and cfg.up == "learned"
     vp = state.verticals.vp if learned else None
     heights, feet = complete_step(state.heights, target_feet_records(result, cfg, vp), result,
