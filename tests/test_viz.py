@@ -98,6 +98,7 @@ PER_FRAME = {  # layer -> archetype column that must be there on every frame
     "heights": "LineStrips2D:strips",
     "targets": "Boxes2D:class_ids",
     "feet": "Points2D:positions",
+    "axes": "LineStrips2D:strips",
     "truth": "Boxes2D:half_sizes",  # the scene has truth
     "truth_feet": "Points2D:positions",
     "feet_final": "Points2D:positions",  # logged after the run, for every frame

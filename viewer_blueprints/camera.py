@@ -1,8 +1,8 @@
 """Single-camera deep dive: the frame with every layer, masks, background and D_B.
 
 One tab per camera; in each, the main view (frame, masks, labels, blobs, the size model's
-heights, targets, feet, the true people where the clip has truth, FOV lines, markers,
-projections) beside the background, D_B and the mask legend's view.
+heights, targets, feet and their height axes, the true people where the clip has truth, FOV
+lines, markers, projections) beside the background, D_B and the mask legend's view.
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ __all__ = ["build"]
 
 def _camera_tab(cam: str) -> rrb.Container:
     main = camera_view(cam, extra=[paths.camera_layer(cam, layer)
-                                   for layer in ("masks", "blobs", "heights", "truth",
-                                                 "truth_feet")],
+                                   for layer in ("masks", "blobs", "heights", "axes",
+                                                 "truth", "truth_feet")],
                        name=f"{cam}: all layers")
     side = rrb.Vertical(
         rrb.Spatial2DView(origin=paths.camera(cam), name=f"{cam}: background B",

@@ -32,6 +32,9 @@ Per camera ``cam``, in that camera's pixel space (one 2D view overlays them)::
                                     label "t{target} m{meta}", "· {enter|leave} {side}" added
                                     at a FOV event
     /cameras/{cam}/feet             Points2D: feet, class id = meta
+    /cameras/{cam}/axes             LineStrips2D: per target, its height axis from its feet up
+                                    to its top (each mask's own PCA axis, or the camera's
+                                    learned vertical with feet.up = "learned"), class id = meta
     /cameras/{cam}/truth            Boxes2D + AnyValues: the true people (truth clips only),
                                     green boxes; hover shows person, visible, in_frame (the
                                     fractions of the person seen and in the frame)
@@ -158,7 +161,7 @@ SUMMARY = "/metrics/summary"
 
 CAMERA_LAYERS = (
     "image", "background", "distance", "masks", "labels", "blobs", "heights", "targets", "feet",
-    "truth", "truth_feet", "feet_final", "resolved", "fov_events", "cues",
+    "axes", "truth", "truth_feet", "feet_final", "resolved", "fov_events", "cues",
 )
 """Layers of a camera that have no second camera in their path."""
 

@@ -360,7 +360,8 @@ class RerunSink:
                     events: Mapping[int, str]) -> None:
         """Blobs, target boxes (labelled with target, meta, this frame's FOV event, if any:
         Rerun writes a label under its box, where an event marker's would collide, and how
-        far its feet were put below the box when it lost its lower body) and feet."""
+        far its feet were put below the box when it lost its lower body), feet and height
+        axes."""
         rec, opts = self.rec, self.options
         if cam.background is not None and opts.blobs:
             self._log_blobs(name, cam)
@@ -374,6 +375,9 @@ class RerunSink:
             class_ids=metas, labels=text, radii=1.0, draw_order=10.0))
         rec.log(paths.camera_layer(name, "feet"), rr.Points2D(
             to_viewer(targets.feet), class_ids=metas, radii=3.0, draw_order=11.0))
+        rec.log(paths.camera_layer(name, "axes"), rr.LineStrips2D(
+            [to_viewer(np.array([f.point, f.point + f.height_px * f.up])) for f in cam.feet],
+            class_ids=metas, radii=1.0, draw_order=10.5))
         self._tracker_events(name, cam)
 
     def _log_blobs(self, name: str, cam: CameraResult) -> None:
