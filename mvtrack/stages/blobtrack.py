@@ -264,6 +264,12 @@ class TrackResult:
         hits = np.flatnonzero(self.labels == label)
         return int(hits[0]) if len(hits) else None
 
+    def shared_labels(self) -> set[int]:
+        """Labels in a merge or a group this frame, or in a split (parent and children): their
+        masks may hold two people, or half of one."""
+        out = {label for _, labels in self.merges + self.groups for label in labels}
+        return out | {label for parent, children in self.splits for label in (parent, *children)}
+
 
 def tracker_init() -> TrackerState:
     """A fresh tracker for one camera: no targets, next label 1."""

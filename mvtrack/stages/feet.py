@@ -288,8 +288,7 @@ def complete_step(memory: HeightMemory, records: tuple[Feet, ...], result: Track
     sides = touching_sides(result.boxes_xywh, (cols, rows), 0.0)  # left, right, top, bottom
     cut = np.any(sides, axis=1).tolist()
     cut_below = (sides[:, 3] & ~np.any(sides[:, :3], axis=1)).tolist()
-    unsure = {label for _, labels in result.merges + result.groups for label in labels}
-    unsure |= {label for parent, children in result.splits for label in (parent, *children)}
+    unsure = result.shared_labels()
     loss = cfg.complete_min_loss_frac
     whole: dict[int, tuple[float, ...]] = {}
     since: dict[int, int] = {}

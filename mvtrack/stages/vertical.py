@@ -92,8 +92,7 @@ def _axis_samples(result: TrackResult, cfg: FeetConfig) -> tuple[np.ndarray, np.
         return np.zeros((0, 2)), np.zeros((0, 2))
     rows, cols = result.label_image.shape
     cut = np.any(touching_sides(result.boxes_xywh, (cols, rows), 0.0), axis=1)
-    unsure = {label for _, labels in result.merges + result.groups for label in labels}
-    unsure |= {label for parent, children in result.splits for label in (parent, *children)}
+    unsure = result.shared_labels()
     centres, axes = [], []
     for i, label in enumerate(result.labels.tolist()):
         if cut[i] or label in unsure:
