@@ -1499,9 +1499,18 @@ class ResolveConfig(_Checked):
     # frames 141-245 took the second's meta (IDF1 0.877 -> 0.989 at the turn; seeds 0-11,
     # refinished, no other clip changes by more than 0.001; on session 43's runs, before
     # exiting targets were predicted at their speed, one_edge s3 0.978 -> 0.981; PETS the same).
+    # The turn is read from the box's inner edge (the one away from the border), not the feet:
+    # with feet.up = "learned" the feet under the centroid of a blob cut by the border barely
+    # turned ('one_edge' s11: cos -0.22 against the -0.5 needed), and two people in turn
+    # there stand on different rows. Over 20 frames each way, and the parts of a turn are
+    # never joined (a hand-off rejoined 'crowd' s10's). The sweep's seeds 0-11, their online
+    # rows resolved again: feet.up = "learned" IDF1 0.9655 -> 0.9700 (one_edge s5 0.860 ->
+    # 0.999, s11 0.882 -> 0.994, gray s6 0.862 -> 0.987, tilted s6 0.914 -> 0.969); the
+    # default 0.9710 -> 0.9709 (three s2 0.991 -> 0.989, gray s6 0.985 -> 0.984); PETS equal.
     switch_turn_heights: float = param(
-        0.2, "...or if it turned back between the runs, having walked more than this many "
-        "heights in 10 frames each way (0 = off)", 0.0, 100.0,
+        0.2, "...or if it turned back at the border between the runs, its box's inner edge "
+        "having come more than this many heights towards it in 20 frames and gone as far back "
+        "in 20 more (0 = off)", 0.0, 100.0,
     )
     # A jump or a turn is evidence of its own, so those switches need shorter runs of votes:
     # one_edge seed 3's cam0 target 1 turned at the left border with 19 votes before it. 48

@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import json
-from dataclasses import dataclass, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from pathlib import Path
 
 import numpy as np
@@ -301,6 +301,57 @@ def test_a_turn_at_the_border_between_partners_never_seen_together_is_a_switch(
     off = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
                          replace(CFG, switch_turn_heights=0.0), sizes=sizes)
     assert not off.switches
+
+
+@dataclass(frozen=True)
+class _BoxRows(Rows):
+    boxes: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+
+    @property
+    def boxes_xywh(self) -> np.ndarray:
+        return self.boxes
+
+
+def _handed_over_at_the_border() -> _BoxRows:
+    """'one_edge' seed 11 cam0: one person walked out over the right border of cam1 (250 px
+    wide) at 1 px per frame, as another, lower in the image, walked in there: one blob for
+    both, its box's inner (left) edge at 230 - |f - 50|, clipped by the border. Its feet,
+    under the blob's centroid, move half as far sideways and slide 30 px down from one
+    person's row to the other's over frames 45-55: walks 40 -> 50 -> 60 of (5, 15) and
+    (-5, 15), not opposed. cam0 sees the two as targets 1 (frames 0-39) and 2 (60-99)."""
+    f = np.arange(100)
+    x = 230.0 - np.abs(f - 50)
+    w = np.minimum(40.0, 250.5 - x)
+    feet = np.c_[x + w / 2, 100.0 + np.clip(3.0 * (f - 45), 0.0, 30.0)]
+    cam1 = _BoxRows(f, np.array(["cam1"] * 100), np.full(100, 7), np.full(100, 3), feet,
+                    np.full(100, 50.0), np.c_[x, feet[:, 1] - 50.0, w, np.full(100, 50.0)])
+    cam0 = _cat(*(Rows(f[k], np.array(["cam0"] * len(k)), np.full(len(k), t),
+                       np.full(len(k), t), feet[k] - [40.0, 0.0], np.full(len(k), 50.0))
+                  for t, k in ((1, np.arange(40)), (2, np.arange(60, 100)))))
+    return _BoxRows(*(np.concatenate([getattr(r, n) for r in (cam0, cam1)])
+                      for n in ("frame", "camera", "target", "meta", "feet", "height",
+                                "boxes_xywh")))
+
+
+@pytest.mark.parametrize(("cam1_width", "cut"), [(250, True), (400, False)])
+def test_a_turn_at_the_border_is_read_from_the_box_inner_edge(cam1_width: int,
+                                                              cut: bool) -> None:
+    """A handover at the border whose feet do not walk back (:func:`_handed_over_at_the_border`)
+    is still a turn: the blob's inner edge came 20 px (0.4 heights) towards the border over
+    the 20 frames before frame 50 and went as far back after. The parts stay two people
+    though a hand-off would join the first, which walked out of cam1 unseen by cam0, to
+    cam0's target 2, which began where that walk leads. Inside a view 400 px wide the same
+    walk is no turn."""
+    rows = _handed_over_at_the_border()
+    sizes = {"cam0": (400, 300), "cam1": (cam1_width, 300)}
+    res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
+    assert [(sw.track, sw.cut, sw.rejoin) for sw in res.switches] == (
+        [(("cam1", 7), 50, False)] if cut else [])
+    metas = _meta_of(rows, res.meta)
+    assert (metas["cam0", 1] != metas["cam0", 2]) == cut
+    high = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
+                          replace(CFG, switch_turn_heights=0.45), sizes=sizes)
+    assert not high.switches
 
 
 def test_the_turn_places_the_cut_before_a_jump_does() -> None:

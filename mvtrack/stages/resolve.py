@@ -29,7 +29,9 @@ the results give each target one meta for its whole life:
   never seen together may be one person who left and came back: the target is cut only if
   its feet jumped between the runs (``switch_jump_heights``) or it turned back on the left,
   right or bottom border (``switch_turn_heights``: one person walked out of the view as
-  another walked in, one blob for both), and those parts stay apart;
+  another walked in, one blob for both; read from its box's inner edge), and those parts are
+  not linked as segments (a stitch may rejoin a jump's parts: a glitch; no link joins a
+  turn's);
 - **within one camera** a target that took over the meta of an earlier one (the meta stage's
   resume, or a re-attach through another camera) after at most ``resume_gap_frames`` frames
   stays with it, if the earlier target was gone by then (a meta moved between two live
@@ -122,7 +124,9 @@ class Switch:
     after: Track
     cut: int
     frames: range
-    rejoin: bool = True  # False: the target jumped there, its parts are never rejoined
+    rejoin: bool = True  # False: the target jumped or turned there, no segment link
+    turned: bool = False  # it turned back at the border: its parts are never joined (a
+    # hand-off from the first to the second's partner: 'crowd' seed 10)
 
 
 @dataclass(frozen=True)
@@ -254,7 +258,7 @@ _VELOCITY_FRAMES = 10  # rows over which a walking velocity is measured
 # by the longer ones, PETS (View_001 video + View_003 detections, whose tracks break
 # everywhere and whose people wander) fell from IDF1 0.535 to 0.488.
 _END_WALK_ROWS = (10, 20, 30)
-_TURN_BORDER_FRAMES = 2  # a turn at the border: the box on it within this many frames
+_TURN_FRAMES = 20  # a turn at the border: the walks out and back in over this many frames
 
 
 def _outward(rows: Rows, sizes: Mapping[str, tuple[int, int]] | None) -> np.ndarray:
@@ -330,28 +334,32 @@ class _Tracks:
 
     def turn(self, p: Track, frames: range, heights: float) -> int | None:
         """The frame in ``frames`` where the target walked back the way it came at the left,
-        right or bottom border: its feet moved more than ``heights`` times its median height
-        over the ``_VELOCITY_FRAMES`` before and again over those after, in directions more
-        than 120 degrees apart (the most opposed such frame; of equals, the one with the
-        longer walks each way: the apex), its box on that border within
-        ``_TURN_BORDER_FRAMES``; else None. One person walking out of the view as another
-        walks in there, one blob for both, make this turn; a person turning round inside the
-        view does not."""
-        at, r, k = self.at[p], self.rows, _VELOCITY_FRAMES
-        scale = self.median_height(p)
-        least, best, where = heights * scale, (-0.5, 0.0), None
+        right or bottom border: its box on that border, whose inner edge (the one away from
+        it) came more than ``heights`` times the target's median height towards it over the
+        ``_TURN_FRAMES`` before and went as far back over those after (of such frames, the
+        one with the most each way: the apex); else None. One person walking out of the view
+        as another walks in there, one blob for both, make this turn; a person turning round
+        inside the view does not. The inner edge, not the feet: a blob the border cuts moves
+        its inner edge by the whole walk, the feet under its centroid by half, and two people
+        in turn there stand on different rows, which puts a jump across the walk into the
+        feet."""
+        at, r, k = self.at[p], self.rows, _TURN_FRAMES
+        best, where = heights * self.median_height(p), None
         for f in frames:
-            i, j, n = at.get(f - k), at.get(f), at.get(f + k)
-            near = range(f - _TURN_BORDER_FRAMES, f + _TURN_BORDER_FRAMES + 1)
-            if i is None or j is None or n is None or not any(
-                    self.at_exit[at[g]] for g in near if g in at):
+            j = at.get(f)
+            if j is None or not self.at_exit[j]:
                 continue
-            before, after = r.feet[j] - r.feet[i], r.feet[n] - r.feet[j]
-            norms = float(np.linalg.norm(before)), float(np.linalg.norm(after))
-            key = (float(before @ after) / (norms[0] * norms[1]) if min(norms) > least else 1.0,
-                   -min(norms))
-            if key < best:
-                best, where = key, f
+            u = self.outward[j] / np.linalg.norm(self.outward[j])
+            near = [at[g] for g in range(f - k, f + k + 1) if g in at]
+            boxes = r.boxes_xywh[near]
+            inner = boxes[:, :2] + np.where(u < 0, boxes[:, 2:], 0.0)
+            out = inner @ u  # how far out each row's inner edge is
+            here = out[near.index(j)]
+            split = r.frame[near] < f
+            came, went = (here - out[side | (r.frame[near] == f)].min()
+                          for side in (split, ~split))
+            if min(came, went) > best:
+                best, where = min(came, went), f
         return where
 
 
@@ -401,10 +409,11 @@ def _switches(track: Track, partners: list[tuple[int, Track]], tracks: _Tracks,
         if (tracks.together(p[0], q[0]) > cfg.max_shared_frames
                 or tracks.continues(p[0], q[0], cfg)):
             continue
-        if at := ((cfg.switch_turn_heights > 0
-                   and tracks.turn(track, between, cfg.switch_turn_heights))
-                  or tracks.jump(track, between, cfg.switch_jump_heights)):
-            out.append(Switch(track, p[0], q[0], at, frames, rejoin=False))
+        turn = cfg.switch_turn_heights > 0 and tracks.turn(track, between,
+                                                           cfg.switch_turn_heights)
+        if at := turn or tracks.jump(track, between, cfg.switch_jump_heights):
+            out.append(Switch(track, p[0], q[0], at, frames, rejoin=False,
+                              turned=bool(turn)))
     return sorted(out, key=lambda sw: sw.cut)
 
 
@@ -428,10 +437,13 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
 
 
 def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
-              outward: np.ndarray) -> tuple[np.ndarray, list[Switch], set[Node]]:
+              outward: np.ndarray
+              ) -> tuple[np.ndarray, list[Switch], set[Node], set[tuple[Node, Node]]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
-    (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, and the
-    segments that must not rejoin the one before."""
+    (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, the
+    segments not to be linked to the one before (a jump or a turn) and the (segment, next
+    segment) pairs of two people, never joined by any link (a turn at the border: a stitch,
+    which walks on the same way, may rejoin the parts of a glitch's jump; 'doors' seed 9)."""
     partners: dict[tuple[Track, str], list[tuple[int, Track]]] = {}
     cams, targets, frame = rows.camera.tolist(), rows.target.tolist(), rows.frame.tolist()
     for i, k in votes:
@@ -446,15 +458,17 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
     segment = np.zeros(len(frame), np.int64)
     cut: list[Switch] = []
     apart: set[Node] = set()
+    two_people: set[tuple[Node, Node]] = set()
     for track, switches in by_track.items():
         mine = sorted({sw.cut: sw for sw in switches
                        if _who_switched(sw, by_track, tracks)}.values(), key=lambda sw: sw.cut)
         cut += mine
         apart |= {(*track, n + 1) for n, sw in enumerate(mine) if not sw.rejoin}
+        two_people |= {((*track, n), (*track, n + 1)) for n, sw in enumerate(mine) if sw.turned}
         for sw in mine:
             for f, i in tracks.at[track].items():
                 segment[i] += f >= sw.cut
-    return segment, cut, apart
+    return segment, cut, apart, two_people
 
 
 def _apart(nodes: list[Node], assigned: Mapping[tuple[str, str], list[tuple[int, int]]],
@@ -792,8 +806,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
                 rows, frames, (a, b), np.asarray(H, np.float64), cfg)
     outward = _outward(rows, sizes)
-    segment, switches, apart = _segments(rows, [v for vs in assigned.values() for v in vs], cfg,
-                                         outward)
+    segment, switches, apart, two_people = _segments(
+        rows, [v for vs in assigned.values() for v in vs], cfg, outward)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
@@ -810,7 +824,8 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     with_h = {(a, b): np.asarray(H, np.float64) for a, b, H in pairs if H is not None and use_h}
     scored += [(3, v, x, y, "handoff")
                for v, x, y in _handoff_links(rows, frames, by_node, ends, with_h, cfg)]
-    groups = _Groups(rows, nodes, cfg.max_shared_frames, _apart(nodes, assigned, far, cfg),
+    groups = _Groups(rows, nodes, cfg.max_shared_frames,
+                     _apart(nodes, assigned, far, cfg) | two_people,
                      cameras_apart(rows.camera.tolist(), overlaps))
     links = []
     for _, v, x, y, source in sorted(scored, key=lambda s: (s[0], -s[1], s[2], s[3])):
