@@ -572,6 +572,38 @@ def test_no_stitch_from_a_target_that_walked_out_of_the_view() -> None:
     assert len(set(res.meta.tolist())) == 2 and not res.links
 
 
+def _through_the_bottom(target: int, frames: range, top0: float, vy: float,
+                        completed_until: int | None) -> _BoxRows:
+    """cam0 (320 x 240) rows of a person 60 px tall whose box's top moves ``vy`` px a frame
+    from ``top0``, cut by the bottom border; feet put back below the frame until frame
+    ``completed_until`` (None: never), then on the border (further out, too little shows)."""
+    f = np.array(frames, np.int64)
+    top = top0 + vy * (f - f[0])
+    bottom = np.minimum(top + 60.0, 239.5)
+    feet_y = np.where(f <= (completed_until if completed_until is not None else -1),
+                      top + 60.0, bottom)
+    n = len(f)
+    return _BoxRows(f, np.array(["cam0"] * n), np.full(n, target), np.full(n, target),
+                    np.c_[np.full(n, 110.0), feet_y], np.full(n, 60.0),
+                    np.c_[np.full(n, 100.0), top, np.full(n, 20.0), bottom - top])
+
+
+def test_a_target_whose_feet_fall_back_onto_the_border_still_walked_out() -> None:
+    """'tilted' s11 (feet.up = "learned"): cam0's target 1 walked out over the bottom border,
+    its feet below the frame while half of it showed, then back on the border for its last 5
+    rows: its feet's last 10 rows head back into the view, its box's top edge does not. A
+    newcomer walking in there 5 frames later was stitched to it (and with it, its other
+    camera's partner). Not with the inner edge: one walked out, one walked in."""
+    out = _through_the_bottom(1, range(0, 36), 150.0, 2.0, completed_until=30)
+    came = _through_the_bottom(2, range(40, 80), 220.0, -2.0, completed_until=None)
+    rows = _BoxRows(*(np.concatenate([getattr(r, n) for r in (out, came)])
+                      for n in ("frame", "camera", "target", "meta", "feet", "height",
+                                "boxes_xywh")))
+    res = resolve_labels(rows, [], CFG, sizes={"cam0": (320, 240)})
+    assert len(set(res.meta.tolist())) == 2 and not res.links
+    assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 1  # borders unknown
+
+
 @pytest.mark.parametrize(("gap", "vx", "handed"), [
     (11, 1.0, True),    # hidden in cam0, lost in cam1, out in cam0 11 frames later
     (31, 1.0, False),   # beyond handoff_max_gap_frames

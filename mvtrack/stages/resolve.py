@@ -351,9 +351,7 @@ class _Tracks:
                 continue
             u = self.outward[j] / np.linalg.norm(self.outward[j])
             near = [at[g] for g in range(f - k, f + k + 1) if g in at]
-            boxes = r.boxes_xywh[near]
-            inner = boxes[:, :2] + np.where(u < 0, boxes[:, 2:], 0.0)
-            out = inner @ u  # how far out each row's inner edge is
+            out = _inner_edges(r.boxes_xywh[near], u) @ u  # how far out each row's is
             here = out[near.index(j)]
             split = r.frame[near] < f
             came, went = (here - out[side | (r.frame[near] == f)].min()
@@ -361,6 +359,16 @@ class _Tracks:
             if min(came, went) > best:
                 best, where = min(came, went), f
         return where
+
+
+def _inner_edges(boxes_xywh: np.ndarray, outward: np.ndarray) -> np.ndarray:
+    """(N, 2): the boxes' edges away from the border(s) of ``outward`` (a direction of
+    :func:`_outward`): left edge x for the right border, top edge y for the bottom one, ...
+    (the other coordinate is the box's top-left corner's). A blob the border cuts moves this
+    edge with the walk; the feet under its centroid, by half, and they slide to another row
+    with another person."""
+    boxes = np.asarray(boxes_xywh, np.float64).reshape(-1, 4)
+    return boxes[:, :2] + np.where(np.asarray(outward) < 0, boxes[:, 2:], 0.0)
 
 
 def _long_runs(runs: list[list[Any]], least: int) -> list[list[Any]]:
@@ -513,9 +521,11 @@ class _Ends:
     """Where a node (a target or a segment of one) begins and ends: frame, feet (px) and
     velocity (px per frame), the walks (:func:`_walk`) of its first or last k rows for each k
     of ``_END_WALK_ROWS``; its median height (px), and whether it walked out of the view: its
-    last box on a border it can walk out over (:func:`_outward`), its last 10 rows' walk not
-    heading back into the view (a person who came in there and merged with someone on the
-    border at the end did not walk out)."""
+    last box on a border it can walk out over (:func:`_outward`), its box's inner edge over
+    its last 10 rows (:func:`_inner_edges`) not heading back into the view (a person who came
+    in there and merged with someone on the border at the end did not walk out; a person
+    walking out over the bottom whose feet, completed below the frame, fell back onto it at
+    the end did: 'tilted' seed 11 cam0's target 1 with feet.up = "learned")."""
 
     first: int
     last: int
@@ -548,9 +558,10 @@ def _end_of(rows: Rows, idx: np.ndarray, outward: np.ndarray) -> _Ends:
     f, xy = rows.frame[order], rows.feet[order]
     starts = tuple(_walk(f[:k], xy[:k], int(f[0])) for k in _END_WALK_ROWS)
     ends = tuple(_walk(f[-k:], xy[-k:], int(f[-1])) for k in _END_WALK_ROWS)
-    side = outward[order[-1]]
+    side, last = outward[order[-1]], order[-_END_WALK_ROWS[0]:]
+    inner = _walk(rows.frame[last], _inner_edges(rows.boxes_xywh[last], side), int(f[-1]))[1]
     return _Ends(int(f[0]), int(f[-1]), starts, ends, float(np.median(rows.height[order])),
-                 bool(side.any() and ends[0][1] @ side >= 0))
+                 bool(side.any() and inner @ side >= 0))
 
 
 def _rows_by_node(nodes: list[Node]) -> dict[Node, np.ndarray]:
