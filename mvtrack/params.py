@@ -763,7 +763,11 @@ class FeetConfig(_Checked):
     # with a shadow was given 85; 'crowd' s7 0.845 -> 0.822), but 'one_edge' s2's first H at
     # frame 275, not 550. Completing to the size line's height (background.SizeModel) instead
     # of the target's own: most completions were wrong (seeds 0-2 IDF1 0.958; the line is
-    # 10-20 % off at the median, 0.9 px/px on 'tilted' s2 cam1 for 300 frames).
+    # 10-20 % off at the median, 0.9 px/px on 'tilted' s2 cam1 for 300 frames). Only for
+    # targets never seen whole and touching no border that show under 0.4 of the line's height
+    # (heads over the booth: 'doors' s9 cam1's person 8, 70 false alarms): seeds 0-11 IDF1
+    # 0.9709 -> 0.9696 ('doors' s4 0.942 -> 0.880, 'tilted' s3 0.942 -> 0.901), 'doors' s9
+    # cam1 precision 0.903 -> 0.906 only.
     complete_short: bool = param(
         True, "a mask target that lost its lower body gets back the height it had when last "
         "seen whole (:func:`~mvtrack.stages.feet.complete_step`)",
@@ -1366,6 +1370,16 @@ class ResolveConfig(_Checked):
     vote_gate_heights: float = param(
         1.5, "a frame votes for the assigned pair only if d is below this (body heights)",
         0.0, 100.0,
+    )
+    # A target mostly out of the view (on a border people walk out over, showing under half
+    # its height) has feet the completion gave up on ('tilted' s11 cam0, 16-26 px of 60 on the
+    # bottom border, drifting, near where H put a newcomer in cam1: 8 votes made them one
+    # person). The sweep's seeds 0-11 resolved again: IDF1 0.9696 -> 0.9697 ('crowd' s10 0.937
+    # -> 0.942, no run lower); with feet.min_part_px 3, 0.9682 -> 0.9689 ('tilted' s11 0.872
+    # -> 0.962, 'crowd' s9 0.934 -> 0.944, but 'crowd' s7 0.870 -> 0.828).
+    vote_min_shown_frac: float = param(
+        0.5, "a target on a border people walk out over votes only while it shows at least "
+        "this fraction of its median height (0 = always)", 0.0, 1.0,
     )
     # A person the other camera loses a few frames after this one finds them again (generated
     # 'pillar' seed 2: cam1 saw person 4 again at frame 275 after 67 frames behind the pillar,

@@ -604,6 +604,31 @@ def test_a_target_whose_feet_fall_back_onto_the_border_still_walked_out() -> Non
     assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 1  # borders unknown
 
 
+def test_a_target_mostly_out_of_the_view_gives_no_votes() -> None:
+    """'tilted' s11: cam0's target 1 walked out over the bottom border; with 16-26 px of its
+    60 shown (too little for the feet completion) its feet drifted on the border, near where
+    H put a newcomer in cam1 (target 8), and 8 votes made the newcomer the same person as
+    cam1's target 3, which had walked out of cam1. Here cam0's target 1 and cam1's target 3
+    walk together for frames 0-29 (cam1's out over its right border); cam0's target 1 then
+    shows 20 of 60 px on the bottom border for frames 30-39, where H puts cam1's target 8
+    (frames 30-70)."""
+    walk = _walker("cam0", 1, 1, range(30), 100.0, 1.0)
+    walk.feet[:, 1] = 225.0
+    out = Rows(np.arange(30, 40), np.array(["cam0"] * 10), np.full(10, 1), np.full(10, 1),
+               np.tile([130.0, 239.5], (10, 1)), np.full(10, 20.0))
+    came = Rows(np.arange(30, 71), np.array(["cam1"] * 41), np.full(41, 8), np.full(41, 8),
+                np.tile([170.0, 239.5], (41, 1)), np.full(41, 60.0))
+    rows = _cat(walk, out, _walker("cam1", 3, 3, range(30), 140.0, 1.0), came)
+    rows.feet[rows.camera == "cam1", 1] = np.r_[np.full(30, 225.0), np.full(41, 239.5)]
+    sizes = {"cam0": (320, 240), "cam1": (180, 400)}
+    metas = _meta_of(rows, resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG,
+                                          sizes=sizes).meta)
+    assert metas["cam0", 1] == metas["cam1", 3] != metas["cam1", 8]
+    every = resolve_labels(rows, [("cam0", "cam1", SHIFT)],
+                           replace(CFG, vote_min_shown_frac=0.0), sizes=sizes)
+    assert len(set(every.meta.tolist())) == 1
+
+
 @pytest.mark.parametrize(("gap", "vx", "handed"), [
     (11, 1.0, True),    # hidden in cam0, lost in cam1, out in cam0 11 frames later
     (31, 1.0, False),   # beyond handoff_max_gap_frames

@@ -206,6 +206,26 @@ def _targets(rows: Rows, index: np.ndarray, size: tuple[int, int]) -> CameraTarg
                          rows.height[index], rows.boxes_xywh[index], size)
 
 
+def _mostly_out(rows: Rows, outward: np.ndarray, least: float) -> np.ndarray:
+    """(N,) bool: rows of targets on a border people walk out over (``outward``, from
+    :func:`_outward`) showing less than ``least`` of their target's median height. Their feet
+    are guesses: the feet completion gives up on people that far out ('tilted' s11: cam0's
+    target 1, walking out over the bottom, 16-26 px of 60 shown, its feet drifting on the
+    border, won 8 votes from a newcomer in cam1 and made the two one person)."""
+    out = np.zeros(len(rows.frame), bool)
+    at_exit = np.asarray(outward.any(axis=1))
+    if least <= 0 or not at_exit.any():
+        return out
+    keys = list(zip(rows.camera.tolist(), rows.target.tolist(), strict=True))
+    index: dict[tuple[str, int], list[int]] = {}
+    for i, k in enumerate(keys):
+        index.setdefault(k, []).append(i)
+    for idx in index.values():
+        mine = np.array(idx)
+        out[mine] = at_exit[mine] & (rows.height[mine] < least * np.median(rows.height[mine]))
+    return out
+
+
 def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H: np.ndarray,
                  cfg: ResolveConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]],
                                               list[tuple[int, int]]]:
@@ -810,13 +830,15 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     fragment_votes: dict[tuple[str, str], list[tuple[int, int]]] = {}
     without_h: set[frozenset[str]] = set()
     far: dict[tuple[str, str], list[tuple[int, int]]] = {}
+    outward = _outward(rows, sizes)
+    voting = [chunk[~_mostly_out(rows, outward, cfg.vote_min_shown_frac)[chunk]]
+              for chunk in frames]
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
         else:
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
-                rows, frames, (a, b), np.asarray(H, np.float64), cfg)
-    outward = _outward(rows, sizes)
+                rows, voting, (a, b), np.asarray(H, np.float64), cfg)
     segment, switches, apart, two_people = _segments(
         rows, [v for vs in assigned.values() for v in vs], cfg, outward)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
