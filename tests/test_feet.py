@@ -550,3 +550,22 @@ def test_a_target_walking_in_below_gets_the_size_lines_height() -> None:
     # a target seen whole keeps its own height, not the line's
     out = _completed(_walking_out_below(26), sizes=SizeModel(whole=(0.0, 70.0)))
     assert [rec.height_px for rec in out[11:21]] == pytest.approx([40.0] * 10, abs=0.6)
+
+
+def test_specks_below_the_feet_can_be_left_out_of_the_upright_box() -> None:
+    """A person 40 px tall standing on row 69 with two specks of their cast shadow 6 and 8
+    rows below (1 px and a 2 x 1 pair, kept by the opening, then left by the shadow test):
+    the thesis's outline points reach down to the specks; with min_part_px 3 the feet are on
+    the person's bottom edge."""
+    mask = np.zeros((100, 60), bool)
+    mask[30:70, 24:36] = True
+    mask[75, 27] = True
+    mask[77, 31:33] = True
+    plain = feet_pca(mask, cfg=CFG)
+    cut = feet_pca(mask, cfg=FeetConfig(min_part_px=3.0))
+    assert plain.point[1] > 74.0
+    assert cut.point[1] == pytest.approx(69.5, abs=0.3)
+    assert cut.height_px == pytest.approx(40.0, abs=0.6)
+    # parts the size of a foot stay
+    mask[72:76, 26:30] = True
+    assert feet_pca(mask, cfg=FeetConfig(min_part_px=3.0)).point[1] > 75.0

@@ -144,6 +144,10 @@ def feet_pca(
     right = np.array([down[1], -down[0]])  # (right, down) is a right-handed image frame
 
     contours, _ = cv2.findContours(mask8, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if cfg.min_part_px > 0 and len(contours) > 1:
+        areas = [cv2.contourArea(c) for c in contours]
+        contours = ([c for c, a in zip(contours, areas, strict=True) if a >= cfg.min_part_px]
+                    or [contours[int(np.argmax(areas))]])
     outline = np.concatenate([c.reshape(-1, 2) for c in contours]).astype(np.float64)
     outline = outline + np.asarray(offset_xy, np.float64) - centre
     outline_uv = np.stack([outline @ right, outline @ down], axis=1)
