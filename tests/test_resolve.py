@@ -253,6 +253,7 @@ def test_a_jump_between_partners_never_seen_together_is_a_switch(jump_px: float)
     rows = _left_and_came_back(jump_px, turn=jump_px < 50.0)
     res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG)
     assert [(sw.track, sw.cut, sw.rejoin) for sw in res.switches] == [(("cam1", 7), 50, False)]
+    assert [sw.why for sw in res.switches] == ["its feet jumped in between"]
     metas = _meta_of(rows, res.meta)
     assert metas["cam0", 1] != metas["cam0", 2]
     cam1 = rows.camera == "cam1"
@@ -347,6 +348,9 @@ def test_a_turn_at_the_border_is_read_from_the_box_inner_edge(cam1_width: int,
     res = resolve_labels(rows, [("cam0", "cam1", SHIFT)], CFG, sizes=sizes)
     assert [(sw.track, sw.cut, sw.rejoin) for sw in res.switches] == (
         [(("cam1", 7), 50, False)] if cut else [])
+    assert [sw.why for sw in res.switches] == (
+        ["it turned back at the border in between (one walked out as the other walked in)"]
+        if cut else [])
     metas = _meta_of(rows, res.meta)
     assert (metas["cam0", 1] != metas["cam0", 2]) == cut
     high = resolve_labels(rows, [("cam0", "cam1", SHIFT)],

@@ -355,8 +355,8 @@ def test_identity_switches_cut_by_the_resolution_are_warnings_at_their_frame(
                                                        rb.column("TextLog:text").to_pylist(),
                                                        strict=True) if "changed person" in t[0]]
     assert warnings == [(40, "whole-run labels: cam1 t7 changed person about here: it matched "
-                             "cam0 t1 before and cam0 t2 after; the two parts are labelled "
-                             "apart")]
+                             "cam0 t1 before and cam0 t2 after, and the two were in view "
+                             "together (two people); the two parts are labelled apart")]
 
 
 # ------------------------------------------------------------------------------- blueprints

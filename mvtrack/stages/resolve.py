@@ -128,6 +128,16 @@ class Switch:
     turned: bool = False  # it turned back at the border: its parts are never joined (a
     # hand-off from the first to the second's partner: 'crowd' seed 10)
 
+    @property
+    def why(self) -> str:
+        """What showed the change, in words (the viewer's event log)."""
+        if self.turned:
+            return ("it turned back at the border in between (one walked out as the other walked "
+                    "in)")
+        if not self.rejoin:
+            return "its feet jumped in between"
+        return "the two were in view together (two people)"
+
 
 @dataclass(frozen=True)
 class ResolvedLink:

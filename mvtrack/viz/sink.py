@@ -621,8 +621,8 @@ class RerunSink:
                 self._set_frame(sw.cut)
                 (name, target), (other, before), (_, after) = sw.track, sw.before, sw.after
                 self.warn(f"whole-run labels: {name} t{target} changed person about here: it "
-                          f"matched {other} t{before} before and {other} t{after} after; the "
-                          "two parts are labelled apart")
+                          f"matched {other} t{before} before and {other} t{after} after, and "
+                          f"{sw.why}; the two parts are labelled apart")
         self._set_frame(done.stop - 1)
         self.event(f"whole-run labels: {int(changed.sum())} of {len(meta)} target rows carry "
                    "another meta than they had online, drawn as thick boxes labelled "
