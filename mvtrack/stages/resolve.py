@@ -216,26 +216,6 @@ def _targets(rows: Rows, index: np.ndarray, size: tuple[int, int]) -> CameraTarg
                          rows.height[index], rows.boxes_xywh[index], size)
 
 
-def _mostly_out(rows: Rows, outward: np.ndarray, least: float) -> np.ndarray:
-    """(N,) bool: rows of targets on a border people walk out over (``outward``, from
-    :func:`_outward`) showing less than ``least`` of their target's median height. Their feet
-    are guesses: the feet completion gives up on people that far out ('tilted' s11: cam0's
-    target 1, walking out over the bottom, 16-26 px of 60 shown, its feet drifting on the
-    border, won 8 votes from a newcomer in cam1 and made the two one person)."""
-    out = np.zeros(len(rows.frame), bool)
-    at_exit = np.asarray(outward.any(axis=1))
-    if least <= 0 or not at_exit.any():
-        return out
-    keys = list(zip(rows.camera.tolist(), rows.target.tolist(), strict=True))
-    index: dict[tuple[str, int], list[int]] = {}
-    for i, k in enumerate(keys):
-        index.setdefault(k, []).append(i)
-    for idx in index.values():
-        mine = np.array(idx)
-        out[mine] = at_exit[mine] & (rows.height[mine] < least * np.median(rows.height[mine]))
-    return out
-
-
 def _assignments(rows: Rows, frames: list[np.ndarray], names: tuple[str, str], H: np.ndarray,
                  cfg: ResolveConfig) -> tuple[list[tuple[int, int]], list[tuple[int, int]],
                                               list[tuple[int, int]]]:
@@ -324,6 +304,21 @@ class _Tracks:
                 self._ends[t] = _end_of(self.rows, np.array(list(self.at[t].values())),
                                         self.outward)
         return _continues(self._ends[p], self._ends[q], cfg, gap_factor=2) is not None
+
+    def mostly_out(self, least: float) -> np.ndarray:
+        """(N,) bool: rows on a border people walk out over showing less than ``least`` of
+        their target's median height. Their feet are guesses: the feet completion gives up on
+        people that far out ('tilted' s11: cam0's target 1, walking out over the bottom, 16-26
+        px of 60 shown, its feet drifting on the border, won 8 votes from a newcomer in cam1
+        and made the two one person)."""
+        out = np.zeros(len(self.rows.frame), bool)
+        if least <= 0 or not self.at_exit.any():
+            return out
+        for at in self.at.values():
+            mine = np.fromiter(at.values(), np.int64, len(at))
+            out[mine] = self.at_exit[mine] & (self.rows.height[mine]
+                                              < least * np.median(self.rows.height[mine]))
+        return out
 
     def median_height(self, p: Track) -> float:
         """The target's median height (px, at least 1)."""
@@ -475,7 +470,7 @@ def _who_switched(sw: Switch, by_track: dict[Track, list[Switch]], tracks: _Trac
 
 
 def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
-              outward: np.ndarray
+              tracks: _Tracks
               ) -> tuple[np.ndarray, list[Switch], set[Node], set[tuple[Node, Node]]]:
     """(N,) int64: each row's segment of its target, cut where it changed person
     (:func:`_switches`, :func:`_who_switched`; 0 without cuts), the switches cut, the
@@ -488,7 +483,6 @@ def _segments(rows: Rows, votes: list[tuple[int, int]], cfg: ResolveConfig,
         a, b = (cams[i], targets[i]), (cams[k], targets[k])
         partners.setdefault((a, b[0]), []).append((frame[i], b))
         partners.setdefault((b, a[0]), []).append((frame[k], a))
-    tracks = _Tracks(rows, outward)
     by_track: dict[Track, list[Switch]] = {}
     for (track, _), seq in partners.items():
         seq.sort()
@@ -841,8 +835,9 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
     without_h: set[frozenset[str]] = set()
     far: dict[tuple[str, str], list[tuple[int, int]]] = {}
     outward = _outward(rows, sizes)
-    voting = [chunk[~_mostly_out(rows, outward, cfg.vote_min_shown_frac)[chunk]]
-              for chunk in frames]
+    tracks = _Tracks(rows, outward)
+    guessed = tracks.mostly_out(cfg.vote_min_shown_frac)
+    voting = [chunk[~guessed[chunk]] for chunk in frames]
     for a, b, H in pairs:
         if H is None or not use_h:
             without_h.add(frozenset((a, b)))
@@ -850,7 +845,7 @@ def resolve_labels(rows: Rows, pairs: Sequence[tuple[str, str, np.ndarray | None
             assigned[a, b], fragment_votes[a, b], far[a, b] = _assignments(
                 rows, voting, (a, b), np.asarray(H, np.float64), cfg)
     segment, switches, apart, two_people = _segments(
-        rows, [v for vs in assigned.values() for v in vs], cfg, outward)
+        rows, [v for vs in assigned.values() for v in vs], cfg, tracks)
     nodes: list[Node] = list(zip(rows.camera.tolist(), rows.target.tolist(), segment.tolist(),
                                  strict=True))
     scored: list[tuple[int, int, Node, Node, str]] = []  # (rank, votes, a, b, source)
