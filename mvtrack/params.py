@@ -1386,9 +1386,9 @@ class ResolveConfig(_Checked):
     # A target mostly out of the view (on a border people walk out over, showing under half
     # its height) has feet the completion gave up on ('tilted' s11 cam0, 16-26 px of 60 on the
     # bottom border, drifting, near where H put a newcomer in cam1: 8 votes made them one
-    # person). The sweep's seeds 0-11 resolved again: IDF1 0.9696 -> 0.9697 ('crowd' s10 0.937
-    # -> 0.942, no run lower); with feet.min_part_px 3, 0.9682 -> 0.9689 ('tilted' s11 0.872
-    # -> 0.962, 'crowd' s9 0.934 -> 0.944, but 'crowd' s7 0.870 -> 0.828).
+    # person). The sweep's seeds 0-11 resolved again: IDF1 0.97094 -> 0.97099 ('crowd' s10
+    # 0.937 -> 0.942, no other run moves); with feet.min_part_px 3, 0.9682 -> 0.9689
+    # ('tilted' s11 0.872 -> 0.962, 'crowd' s9 0.934 -> 0.944, but 'crowd' s7 0.870 -> 0.828).
     vote_min_shown_frac: float = param(
         0.5, "a target on a border people walk out over votes only while it shows at least "
         "this fraction of its median height (0 = always)", 0.0, 1.0,
