@@ -329,7 +329,12 @@ def _handed_over_at_the_border() -> _BoxRows:
     cam0 = _cat(*(Rows(f[k], np.array(["cam0"] * len(k)), np.full(len(k), t),
                        np.full(len(k), t), feet[k] - [40.0, 0.0], np.full(len(k), 50.0))
                   for t, k in ((1, np.arange(40)), (2, np.arange(60, 100)))))
-    return _BoxRows(*(np.concatenate([getattr(r, n) for r in (cam0, cam1)])
+    return _cat_boxed(cam0, cam1)
+
+
+def _cat_boxed(*parts: Rows) -> _BoxRows:
+    """:func:`_cat` keeping each part's boxes."""
+    return _BoxRows(*(np.concatenate([getattr(r, n) for r in parts])
                       for n in ("frame", "camera", "target", "meta", "feet", "height",
                                 "boxes_xywh")))
 
@@ -600,9 +605,7 @@ def test_a_target_whose_feet_fall_back_onto_the_border_still_walked_out() -> Non
     camera's partner). Not with the inner edge: one walked out, one walked in."""
     out = _through_the_bottom(1, range(0, 36), 150.0, 2.0, completed_until=30)
     came = _through_the_bottom(2, range(40, 80), 220.0, -2.0, completed_until=None)
-    rows = _BoxRows(*(np.concatenate([getattr(r, n) for r in (out, came)])
-                      for n in ("frame", "camera", "target", "meta", "feet", "height",
-                                "boxes_xywh")))
+    rows = _cat_boxed(out, came)
     res = resolve_labels(rows, [], CFG, sizes={"cam0": (320, 240)})
     assert len(set(res.meta.tolist())) == 2 and not res.links
     assert len(set(resolve_labels(rows, [], CFG).meta.tolist())) == 1  # borders unknown
