@@ -583,9 +583,10 @@ def _end_of(rows: Rows, idx: np.ndarray, outward: np.ndarray) -> _Ends:
     starts = tuple(_walk(f[:k], xy[:k], int(f[0])) for k in _END_WALK_ROWS)
     ends = tuple(_walk(f[-k:], xy[-k:], int(f[-1])) for k in _END_WALK_ROWS)
     side, last = outward[order[-1]], order[-_END_WALK_ROWS[0]:]
-    inner = _walk(rows.frame[last], _inner_edges(rows.boxes_xywh[last], side), int(f[-1]))[1]
+    walked_out = bool(side.any()) and float(_walk(
+        rows.frame[last], _inner_edges(rows.boxes_xywh[last], side), int(f[-1]))[1] @ side) >= 0
     return _Ends(int(f[0]), int(f[-1]), starts, ends, float(np.median(rows.height[order])),
-                 bool(side.any() and inner @ side >= 0))
+                 walked_out)
 
 
 def _rows_by_node(nodes: list[Node]) -> dict[Node, np.ndarray]:
